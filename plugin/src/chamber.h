@@ -1,0 +1,67 @@
+// Chamber pressure: the physical model (paper 000 eq. 4, paper 001 eq. 1,
+// paper 002 eq. 1) and the identified model (paper 000 eqs. 6, 10), each with
+// a step that is stable and accurate at MuJoCo timesteps.
+#ifndef PNEUMATIC_CHAMBER_H_
+#define PNEUMATIC_CHAMBER_H_
+
+#include "config.h"
+#include "flow.h"
+#include "valves.h"
+
+namespace pneumatic {
+
+// what one chamber's pressure dynamics need, fixed at attach time
+struct ChamberModel {
+  FlowLawConstants flow;
+  double polytropic_index = 1.4;  // n
+  double work_factor = 1.0;       // alpha
+  double gas_rt = 0;              // r T, J/kg
+  double p_supply = 0, p_exhaust = 0;  // Pa abs
+  double tolerance = 0;           // Pa, local error allowed per substep
+};
+
+ChamberModel MakeChamberModel(const CylinderConfig& c, int chamber);
+
+// the chamber volume over the step: V(tau) = clamp(volume + volume_rate tau, min, max)
+struct VolumePath {
+  double volume = 0;       // m^3 at the start of the step
+  double volume_rate = 0;  // m^3/s, held over the step
+  double min_volume = 0;   // m^3: the dead volume
+  double max_volume = 0;   // m^3: dead volume plus area times stroke
+  double At(double tau) const;
+};
+
+// net mass flow into the chamber (kg/s) at pressure p (Pa abs), paper 000 eq. (2)
+double ChamberMassFlow(const ChamberModel& k, const PortOpenings& o, double p);
+
+// dp/dt (Pa/s) of the physical model:
+//   dp/dt = n r T Q / V - alpha n p (dV/dt) / V
+// paper 000 eq. (4a) (alpha = 1), paper 001 eq. (1) (n = gamma), paper 002 eq. (1) (n = k)
+double PressureRate(const ChamberModel& k, const PortOpenings& o, double p, double volume,
+                    double volume_rate);
+
+// Pressure (Pa abs) at the end of a step of length h from p0, for the physical
+// model. Written for y = p V^(alpha n), the polytropic compression is exact and
+// only the flow term is integrated: dy/dt = n r T V^(alpha n - 1) Q(p). Each
+// substep is backward Euler (L-stable, the root bracketed between the
+// compressed pressure and the port pressures), refined by step doubling with
+// Richardson extrapolation; the substep adapts to `tolerance`, and splits at
+// the instants where valves switch. The result lies in the reachable range
+// [min(p_exhaust, p_compressed), max(p_supply, p_compressed)].
+double PhysicalPressureStep(const ChamberModel& k, const PortSchedule& ports, const VolumePath& volume,
+                            double p0, double h);
+
+// paper 000 eq. (10): steady-state pressure s (Pa abs) and rate r (1/s) at
+// command u (V), volume sensor v = x and its rate
+struct SteadyStateAndRate {
+  double s = 0;
+  double r = 0;
+};
+SteadyStateAndRate IdentifiedModel(const IdentifiedParams& c, double u, double v, double v_rate);
+
+// paper 000 eq. (7): p(t + h) = s + (p(t) - s) e^(-r h), with r held at >= 0
+double IdentifiedPressureStep(const SteadyStateAndRate& sr, double p0, double h);
+
+}  // namespace pneumatic
+
+#endif  // PNEUMATIC_CHAMBER_H_

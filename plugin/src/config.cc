@@ -1,0 +1,459 @@
+// Parameter table, parsing and validation of "pneumatic:<cylinder>" text.
+#include "config.h"
+
+#include <cmath>
+#include <cstdlib>
+#include <map>
+#include <sstream>
+#include <vector>
+
+#include "pneumatic/pneumatic.h"
+
+namespace pneumatic {
+namespace {
+
+enum class Scope { kCylinder, kChamber };
+
+// which configurations a key applies to; giving it elsewhere is an error
+enum class AppliesTo {
+  kAll,
+  kOnOff,            // valve=onoff
+  kPwm,              // valve=onoff input=pwm
+  kProportional53,   // valve=proportional_5_3
+  kPerChamber,       // valve=proportional_per_chamber
+  kIso6358,          // flow=iso6358
+  kAreaLaw,          // flow=sanville or thin_plate
+  kOnOffAreaLaw,     // valve=onoff with flow=sanville or thin_plate
+  kThinPlate,        // flow=thin_plate
+  kIdentified,       // pressure_model=identified
+  kFriction,         // coulomb_friction given
+};
+
+// one row of the table: documentation and checks in one place
+struct Param {
+  const char* key;
+  Scope scope;
+  AppliesTo applies;
+  const char* unit;
+  const char* default_value;  // nullptr: required; "derived": computed from others
+  const char* choices;        // space separated, nullptr for numbers
+  double min, max;            // valid range for numbers
+  bool min_open, max_open;    // true: the bound itself is excluded
+  const char* meaning;
+};
+
+constexpr double kInf = INFINITY;
+
+// every key of the MJCF configuration
+const Param kParams[] = {
+    // cylinder
+    {"valve", Scope::kCylinder, AppliesTo::kAll, "", nullptr, "onoff proportional_5_3 proportional_per_chamber", 0, 0, false, false,
+     "valve arrangement: four on/off valves (paper 002), one 5/3 proportional valve (paper 001), or one proportional valve per chamber (paper 000)"},
+    {"input", Scope::kCylinder, AppliesTo::kOnOff, "", "valves", "valves pwm", 0, 0, false, false,
+     "on/off valves commanded one by one (u1..u4) or by one duty in [-1, 1] (paper 003 eqs. 12-13)"},
+    {"stroke", Scope::kCylinder, AppliesTo::kAll, "m (rad)", nullptr, nullptr, 0, kInf, true, true,
+     "stroke length l; x in [-l/2, l/2]"},
+    {"x_mid", Scope::kCylinder, AppliesTo::kAll, "m (rad)", "0", nullptr, -kInf, kInf, true, true,
+     "actuator length at mid-stroke, so x = actuator_length - x_mid"},
+    {"p_supply", Scope::kCylinder, AppliesTo::kAll, "Pa abs", "600000", nullptr, 0, kInf, true, true,
+     "supply (compressor) pressure"},
+    {"p_exhaust", Scope::kCylinder, AppliesTo::kAll, "Pa abs", "101325", nullptr, 0, kInf, true, true,
+     "exhaust pressure; must be below p_supply"},
+    {"p_atm", Scope::kCylinder, AppliesTo::kAll, "Pa abs", "p_exhaust", nullptr, 0, kInf, false, true,
+     "ambient pressure on the outer piston faces; the activations are p - p_atm"},
+    {"temperature", Scope::kCylinder, AppliesTo::kAll, "K", "293.15", nullptr, 0, kInf, true, true,
+     "gas temperature T, the same in supply, chambers and exhaust"},
+    {"gas_constant", Scope::kCylinder, AppliesTo::kAll, "J/(kg K)", "287", nullptr, 0, kInf, true, true,
+     "specific gas constant r of the gas (R/M)"},
+    {"heat_capacity_ratio", Scope::kCylinder, AppliesTo::kAreaLaw, "", "1.4", nullptr, 1, 3, true, false,
+     "ratio of specific heats gamma (kappa) in the sanville and thin-plate flow laws"},
+    {"compressibility", Scope::kCylinder, AppliesTo::kThinPlate, "", "1", nullptr, 0, 2, true, false,
+     "compressibility factor Z of the thin-plate law (paper 000 Table II: 0.99)"},
+    {"spool_gain", Scope::kCylinder, AppliesTo::kProportional53, "m/V", "0.00025", nullptr, 0, kInf, true, true,
+     "spool position gain k_v (paper 001 Table I)"},
+    {"spool_time_constant", Scope::kCylinder, AppliesTo::kProportional53, "s", "0.0042", nullptr, 0, 1, false, false,
+     "spool first-order lag tau_v (paper 001 eq. 1); 0 = no lag"},
+    {"u_max", Scope::kCylinder, AppliesTo::kProportional53, "V", "5", nullptr, 0, kInf, true, true,
+     "command saturation: the spool is driven by clip(u, -u_max, u_max)"},
+    {"orifice_gradient", Scope::kCylinder, AppliesTo::kProportional53, "m^2/m", "0.0226", nullptr, 0, kInf, true, true,
+     "orifice area per spool displacement w (paper 001 Table I: 22.6 mm^2/mm)"},
+    {"deadband", Scope::kCylinder, AppliesTo::kProportional53, "", "0", nullptr, 0, 1, false, true,
+     "flow deadband as a fraction of the full spool range 2 k_v u_max (paper 001: 0.12)"},
+    {"delay_open", Scope::kCylinder, AppliesTo::kOnOff, "s", "0", nullptr, 0, 1, false, false,
+     "opening delay of each on/off valve (paper 002: 1.3e-3)"},
+    {"delay_close", Scope::kCylinder, AppliesTo::kOnOff, "s", "0", nullptr, 0, 1, false, false,
+     "closing delay of each on/off valve (paper 002: 0.2e-3)"},
+    {"pwm_frequency", Scope::kCylinder, AppliesTo::kPwm, "Hz", "0", nullptr, 0, kInf, false, true,
+     "PWM carrier frequency; 0 = the averaged model of paper 003 eq. 14"},
+    {"coulomb_friction", Scope::kCylinder, AppliesTo::kAll, "N (N m)", "none", nullptr, 0, kInf, false, true,
+     "sliding seal friction; static friction is the transmission's frictionloss (needs actuator <name>.friction)"},
+    {"stribeck_velocity", Scope::kCylinder, AppliesTo::kFriction, "m/s (rad/s)", "0.01", nullptr, 0, kInf, true, true,
+     "speed over which friction falls from the static to the Coulomb level"},
+    {"step", Scope::kCylinder, AppliesTo::kAll, "", "exact", "exact explicit", 0, 0, false, false,
+     "chamber integration inside a MuJoCo step: adaptive implicit (exact) or plain explicit Euler (comparison only)"},
+    {"step_tolerance", Scope::kCylinder, AppliesTo::kAll, "", "1e-4", nullptr, 0, 0.1, true, false,
+     "local error per substep of the exact step, as a fraction of p_supply - p_exhaust"},
+    // chamber (key applies to both chambers; P.key or N.key to one)
+    {"area", Scope::kChamber, AppliesTo::kAll, "m^2 (m^3/rad)", nullptr, nullptr, 0, kInf, true, true,
+     "piston area on this side (cap side P, rod side N); displacement per radian for a rotary cylinder"},
+    {"dead_volume", Scope::kChamber, AppliesTo::kAll, "m^3", nullptr, nullptr, 0, kInf, true, true,
+     "chamber volume at the end of its stroke, ports and tube included"},
+    {"polytropic_index", Scope::kChamber, AppliesTo::kAll, "", "1.4", nullptr, 1, 2, false, false,
+     "n: a sealed chamber follows p V^n = const (paper 002: 1.2; adiabatic air: 1.4)"},
+    {"work_factor", Scope::kChamber, AppliesTo::kAll, "", "1", nullptr, 0, 2, true, false,
+     "alpha on the piston-work term of paper 001 eq. 1 (0.89 there); 1 elsewhere"},
+    {"pressure_model", Scope::kChamber, AppliesTo::kAll, "", "physical", "physical identified", 0, 0, false, false,
+     "physical flow and chamber model, or the identified model of paper 000 eq. 10"},
+    {"flow", Scope::kChamber, AppliesTo::kAll, "", "derived", "iso6358 sanville thin_plate", 0, 0, false, false,
+     "port flow law; default iso6358 (onoff), sanville (5/3), thin_plate (per chamber)"},
+    {"discharge_coefficient", Scope::kChamber, AppliesTo::kAreaLaw, "", "0.72", nullptr, 0, 1, true, false,
+     "C_d (sanville, paper 001: 0.7) or C (thin plate, paper 000: 0.72)"},
+    {"critical_ratio", Scope::kChamber, AppliesTo::kAll, "", "derived", nullptr, 0, 1, false, true,
+     "critical pressure ratio b: default 0.433 for iso6358 (paper 002), 0.2 for sanville (paper 001); unused by thin_plate"},
+    {"sonic_conductance", Scope::kChamber, AppliesTo::kIso6358, "kg/(s Pa)", "3.4e-9", nullptr, 0, kInf, true, true,
+     "C_val = C rho0 of one open on/off valve (paper 002 eq. 4)"},
+    {"port_area", Scope::kChamber, AppliesTo::kOnOffAreaLaw, "m^2", nullptr, nullptr, 0, kInf, true, true,
+     "orifice area of one open on/off valve, for the sanville and thin-plate laws"},
+    {"area_gain", Scope::kChamber, AppliesTo::kPerChamber, "m^2/V", "2e-6", nullptr, 0, kInf, true, true,
+     "B of paper 000 eq. 3"},
+    {"u_supply_seal", Scope::kChamber, AppliesTo::kPerChamber, "V", "5.3", nullptr, -kInf, kInf, true, true,
+     "U_c: voltage at which the supply port seals (paper 000 eq. 3a)"},
+    {"u_exhaust_seal", Scope::kChamber, AppliesTo::kPerChamber, "V", "4.7", nullptr, -kInf, kInf, true, true,
+     "U_r: voltage at which the exhaust port seals (paper 000 eq. 3b)"},
+    {"leak_area_supply", Scope::kChamber, AppliesTo::kPerChamber, "m^2", "5e-8", nullptr, 0, kInf, false, true,
+     "L_c: leakage area of the sealed supply port"},
+    {"leak_area_exhaust", Scope::kChamber, AppliesTo::kPerChamber, "m^2", "5e-8", nullptr, 0, kInf, false, true,
+     "L_r: leakage area of the sealed exhaust port"},
+    {"area_smoothing", Scope::kChamber, AppliesTo::kPerChamber, "m^2", "1e-6", nullptr, 0, kInf, true, true,
+     "area unit inside smax of eq. 3 (the paper's mm^2)"},
+    {"c1", Scope::kChamber, AppliesTo::kIdentified, "V", nullptr, nullptr, -kInf, kInf, true, true, "valve-voltage origin (paper 000 Table I)"},
+    {"c2", Scope::kChamber, AppliesTo::kIdentified, "1/V", nullptr, nullptr, -kInf, kInf, true, true, "valve-voltage scale"},
+    {"c3", Scope::kChamber, AppliesTo::kIdentified, "1/V^3", nullptr, nullptr, -1, kInf, true, true, "kink factor, > -1"},
+    {"c4", Scope::kChamber, AppliesTo::kIdentified, "Pa s/m", nullptr, nullptr, -kInf, kInf, true, true, "ds/dv'"},
+    {"c5", Scope::kChamber, AppliesTo::kIdentified, "1/m", nullptr, nullptr, -kInf, kInf, true, true, "dr/dv'"},
+    {"c6", Scope::kChamber, AppliesTo::kIdentified, "1/m", nullptr, nullptr, -kInf, kInf, true, true, "volume-sensor scale; 1 + c6 x > 0 over the stroke"},
+    {"c7", Scope::kChamber, AppliesTo::kIdentified, "1/(V s)", nullptr, nullptr, 0, kInf, true, true, "rate gain (B of eq. 3), > 0"},
+    {"c8", Scope::kChamber, AppliesTo::kIdentified, "", nullptr, nullptr, -1, 1, true, true, "rate asymmetry, in (-1, 1)"},
+    {"c9", Scope::kChamber, AppliesTo::kIdentified, "V", nullptr, nullptr, 0, kInf, true, true, "leakage, > 0"},
+    {"c_gamma", Scope::kChamber, AppliesTo::kIdentified, "V", "0.1", nullptr, 0, kInf, true, true, "voltage range of the leaky regime"},
+    {"c_b", Scope::kChamber, AppliesTo::kIdentified, "Pa abs", "(p_supply+p_exhaust)/2", nullptr, -kInf, kInf, true, true, "pressure bias of s"},
+    {"c_s", Scope::kChamber, AppliesTo::kIdentified, "Pa", "(p_supply-p_exhaust)/2", nullptr, 0, kInf, true, true, "pressure scale of s"},
+};
+
+const Param* FindParam(const std::string& key) {
+  for (const Param& p : kParams) {
+    if (key == p.key) return &p;
+  }
+  return nullptr;
+}
+
+std::string FormatBound(double v) {
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+std::string ValidText(const Param& p) {
+  if (p.choices) return p.choices;
+  return std::string(p.min_open ? "(" : "[") + FormatBound(p.min) + ", " + FormatBound(p.max) +
+         (p.max_open ? ")" : "]");
+}
+
+// the values given for one cylinder, before defaults
+struct RawValues {
+  std::map<std::string, std::string> cylinder;
+  std::map<std::string, std::string> chamber[2];
+};
+
+class Parser {
+ public:
+  Parser(const std::string& name, std::string* error) : name_(name), error_(error) {}
+
+  bool Fail(const std::string& key, const std::string& message) {
+    *error_ = "cylinder '" + name_ + "': key '" + key + "': " + message;
+    return false;
+  }
+
+  // split "key=value" tokens into cylinder and per-chamber maps
+  bool Split(const std::string& text, RawValues* raw) {
+    std::istringstream in(text);
+    std::string token;
+    while (in >> token) {
+      size_t eq = token.find('=');
+      if (eq == std::string::npos || eq == 0) {
+        return Fail(token, "expected key=value");
+      }
+      std::string key = token.substr(0, eq), value = token.substr(eq + 1);
+      if (value.empty()) return Fail(key, "missing value");
+      int chamber = -1;
+      std::string base = key;
+      if (key.rfind("P.", 0) == 0 || key.rfind("N.", 0) == 0) {
+        chamber = key[0] == 'P' ? 0 : 1;
+        base = key.substr(2);
+      }
+      const Param* p = FindParam(base);
+      if (!p) return Fail(key, "unknown key (see plugin/README.md or 'pneumo params')");
+      if (chamber >= 0 && p->scope != Scope::kChamber) {
+        return Fail(key, "'" + base + "' is a cylinder parameter and takes no P./N. prefix");
+      }
+      auto& target = chamber < 0 ? (p->scope == Scope::kChamber ? shared_chamber_ : raw->cylinder)
+                                 : raw->chamber[chamber];
+      if (target.count(base)) return Fail(key, "given twice");
+      target[base] = value;
+    }
+    // a plain chamber key fills both chambers unless a prefixed one overrides it
+    for (auto& [key, value] : shared_chamber_) {
+      for (auto& chamber : raw->chamber) chamber.emplace(key, value);
+    }
+    return true;
+  }
+
+  // number from text, checked against the table's range
+  bool Number(const Param& p, const std::string& key, const std::string& text, double* out) {
+    const char* begin = text.c_str();
+    char* end = nullptr;
+    double v = std::strtod(begin, &end);
+    if (end == begin || *end != '\0') return Fail(key, "value '" + text + "' is not a number");
+    if (!std::isfinite(v)) return Fail(key, "value '" + text + "' is not finite");
+    bool below = p.min_open ? v <= p.min : v < p.min;
+    bool above = p.max_open ? v >= p.max : v > p.max;
+    if (below || above) {
+      return Fail(key, "value " + text + " is out of range " + ValidText(p) + (p.unit[0] ? std::string(" ") + p.unit : ""));
+    }
+    *out = v;
+    return true;
+  }
+
+  bool Choice(const Param& p, const std::string& key, const std::string& text, int* index) {
+    std::istringstream choices(p.choices);
+    std::string c;
+    for (int i = 0; choices >> c; ++i) {
+      if (c == text) {
+        *index = i;
+        return true;
+      }
+    }
+    return Fail(key, "value '" + text + "' is not one of: " + p.choices);
+  }
+
+ private:
+  std::string name_;
+  std::string* error_;
+  std::map<std::string, std::string> shared_chamber_;
+};
+
+bool Applies(AppliesTo a, const CylinderConfig& c, const ChamberConfig* k) {
+  bool area_law = k && k->flow != FlowLaw::kIso6358;
+  switch (a) {
+    case AppliesTo::kAll: return true;
+    case AppliesTo::kOnOff: return c.valve == ValveKind::kOnOff;
+    case AppliesTo::kPwm: return c.valve == ValveKind::kOnOff && c.input == CommandInput::kPwm;
+    case AppliesTo::kProportional53: return c.valve == ValveKind::kProportional53;
+    case AppliesTo::kPerChamber: return c.valve == ValveKind::kProportionalPerChamber;
+    case AppliesTo::kIso6358: return k && k->flow == FlowLaw::kIso6358;
+    case AppliesTo::kAreaLaw:
+      if (!k) return c.chamber[0].flow != FlowLaw::kIso6358 || c.chamber[1].flow != FlowLaw::kIso6358;
+      return area_law;
+    case AppliesTo::kOnOffAreaLaw: return c.valve == ValveKind::kOnOff && area_law;
+    case AppliesTo::kThinPlate:
+      return c.chamber[0].flow == FlowLaw::kThinPlate || c.chamber[1].flow == FlowLaw::kThinPlate;
+    case AppliesTo::kIdentified: return k && k->model == PressureModel::kIdentified;
+    case AppliesTo::kFriction: return c.coulomb_friction.has_value();
+  }
+  return false;
+}
+
+const char* AppliesText(AppliesTo a) {
+  switch (a) {
+    case AppliesTo::kAll: return "every cylinder";
+    case AppliesTo::kOnOff: return "valve=onoff";
+    case AppliesTo::kPwm: return "valve=onoff with input=pwm";
+    case AppliesTo::kProportional53: return "valve=proportional_5_3";
+    case AppliesTo::kPerChamber: return "valve=proportional_per_chamber";
+    case AppliesTo::kIso6358: return "flow=iso6358";
+    case AppliesTo::kAreaLaw: return "flow=sanville or flow=thin_plate";
+    case AppliesTo::kOnOffAreaLaw: return "valve=onoff with flow=sanville or thin_plate";
+    case AppliesTo::kThinPlate: return "flow=thin_plate";
+    case AppliesTo::kIdentified: return "pressure_model=identified";
+    case AppliesTo::kFriction: return "cylinders with coulomb_friction";
+  }
+  return "";
+}
+
+}  // namespace
+
+std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const std::string& text,
+                                                  std::string* error) {
+  Parser parser(name, error);
+  auto fail = [&](const std::string& key, const std::string& message) -> std::optional<CylinderConfig> {
+    parser.Fail(key, message);
+    return std::nullopt;
+  };
+  RawValues raw;
+  if (!parser.Split(text, &raw)) return std::nullopt;
+
+  CylinderConfig c;
+  c.name = name;
+
+  // value of a key as given, or its default; `given` tells which
+  auto lookup = [&](const std::map<std::string, std::string>& values, const Param& p,
+                    std::string* out) {
+    auto it = values.find(p.key);
+    if (it != values.end()) {
+      *out = it->second;
+      return true;
+    }
+    return false;
+  };
+  auto prefixed = [](int chamber, const char* key) {
+    return chamber < 0 ? std::string(key) : std::string(chamber == 0 ? "P." : "N.") + key;
+  };
+
+  // enumerations first: they decide which other keys apply
+  int index = 0;
+  std::string text_value;
+  const Param& valve = *FindParam("valve");
+  if (!lookup(raw.cylinder, valve, &text_value)) {
+    return fail("valve", "required (one of: " + std::string(valve.choices) + ")");
+  }
+  if (!parser.Choice(valve, "valve", text_value, &index)) return std::nullopt;
+  c.valve = static_cast<ValveKind>(index);
+  if (lookup(raw.cylinder, *FindParam("input"), &text_value)) {
+    if (!parser.Choice(*FindParam("input"), "input", text_value, &index)) return std::nullopt;
+    c.input = static_cast<CommandInput>(index);
+  }
+  if (lookup(raw.cylinder, *FindParam("step"), &text_value)) {
+    if (!parser.Choice(*FindParam("step"), "step", text_value, &index)) return std::nullopt;
+    c.step = static_cast<ChamberStep>(index);
+  }
+  for (int k = 0; k < 2; ++k) {
+    ChamberConfig& ch = c.chamber[k];
+    ch.flow = c.valve == ValveKind::kOnOff           ? FlowLaw::kIso6358
+              : c.valve == ValveKind::kProportional53 ? FlowLaw::kSanville
+                                                      : FlowLaw::kThinPlate;
+    if (lookup(raw.chamber[k], *FindParam("flow"), &text_value)) {
+      if (!parser.Choice(*FindParam("flow"), prefixed(k, "flow"), text_value, &index)) return std::nullopt;
+      ch.flow = static_cast<FlowLaw>(index);
+    }
+    if (lookup(raw.chamber[k], *FindParam("pressure_model"), &text_value)) {
+      if (!parser.Choice(*FindParam("pressure_model"), prefixed(k, "pressure_model"), text_value, &index)) {
+        return std::nullopt;
+      }
+      ch.model = static_cast<PressureModel>(index);
+    }
+  }
+  if (raw.cylinder.count("coulomb_friction")) c.coulomb_friction = 0.0;
+
+  // numbers: given value or default, range-checked, stored by key
+  std::map<std::string, double> cylinder_numbers, chamber_numbers[2];
+  for (const Param& p : kParams) {
+    if (p.choices) continue;
+    for (int k = (p.scope == Scope::kCylinder ? -1 : 0); k < (p.scope == Scope::kCylinder ? 0 : 2); ++k) {
+      const auto& values = k < 0 ? raw.cylinder : raw.chamber[k];
+      const ChamberConfig* chamber = k < 0 ? nullptr : &c.chamber[k];
+      std::string key = prefixed(k, p.key);
+      bool given = lookup(values, p, &text_value);
+      if (!Applies(p.applies, c, chamber)) {
+        if (given) return fail(key, std::string("applies only to ") + AppliesText(p.applies));
+        continue;
+      }
+      if (!given) {
+        if (!p.default_value) return fail(key, std::string("required for ") + AppliesText(p.applies));
+        continue;  // defaults are filled below, where derived ones can see the others
+      }
+      double v = 0;
+      if (!parser.Number(p, key, text_value, &v)) return std::nullopt;
+      (k < 0 ? cylinder_numbers : chamber_numbers[k])[p.key] = v;
+    }
+  }
+  auto cyl = [&](const char* key, double fallback) {
+    auto it = cylinder_numbers.find(key);
+    return it == cylinder_numbers.end() ? fallback : it->second;
+  };
+  c.stroke = cyl("stroke", 0);
+  c.x_mid = cyl("x_mid", 0);
+  c.p_supply = cyl("p_supply", 600000);
+  c.p_exhaust = cyl("p_exhaust", 101325);
+  c.p_atm = cyl("p_atm", c.p_exhaust);
+  c.temperature = cyl("temperature", 293.15);
+  c.gas_constant = cyl("gas_constant", 287);
+  c.heat_capacity_ratio = cyl("heat_capacity_ratio", 1.4);
+  c.compressibility = cyl("compressibility", 1.0);
+  c.spool_gain = cyl("spool_gain", 2.5e-4);
+  c.spool_time_constant = cyl("spool_time_constant", 4.2e-3);
+  c.u_max = cyl("u_max", 5);
+  c.orifice_gradient = cyl("orifice_gradient", 0.0226);
+  c.deadband = cyl("deadband", 0);
+  c.delay_open = cyl("delay_open", 0);
+  c.delay_close = cyl("delay_close", 0);
+  c.pwm_frequency = cyl("pwm_frequency", 0);
+  if (c.coulomb_friction) c.coulomb_friction = cyl("coulomb_friction", 0);
+  c.stribeck_velocity = cyl("stribeck_velocity", 0.01);
+  c.step_tolerance = cyl("step_tolerance", 1e-4);
+  for (int k = 0; k < 2; ++k) {
+    ChamberConfig& ch = c.chamber[k];
+    auto num = [&](const char* key, double fallback) {
+      auto it = chamber_numbers[k].find(key);
+      return it == chamber_numbers[k].end() ? fallback : it->second;
+    };
+    ch.area = num("area", 0);
+    ch.dead_volume = num("dead_volume", 0);
+    ch.polytropic_index = num("polytropic_index", 1.4);
+    ch.work_factor = num("work_factor", 1.0);
+    ch.discharge_coefficient = num("discharge_coefficient", 0.72);
+    ch.critical_ratio = num("critical_ratio", ch.flow == FlowLaw::kSanville ? 0.2 : 0.433);
+    ch.sonic_conductance = num("sonic_conductance", 3.4e-9);
+    ch.port_area = num("port_area", 0);
+    ch.area_gain = num("area_gain", 2e-6);
+    ch.u_supply_seal = num("u_supply_seal", 5.3);
+    ch.u_exhaust_seal = num("u_exhaust_seal", 4.7);
+    ch.leak_area_supply = num("leak_area_supply", 5e-8);
+    ch.leak_area_exhaust = num("leak_area_exhaust", 5e-8);
+    ch.area_smoothing = num("area_smoothing", 1e-6);
+    IdentifiedParams& id = ch.identified;
+    for (int i = 1; i <= 9; ++i) id.c[i] = num(("c" + std::to_string(i)).c_str(), 0);
+    id.c_gamma = num("c_gamma", 0.1);
+    id.c_b = num("c_b", (c.p_supply + c.p_exhaust) / 2);
+    id.c_s = num("c_s", (c.p_supply - c.p_exhaust) / 2);
+  }
+
+  // relations between keys
+  if (c.p_supply <= c.p_exhaust) {
+    return fail("p_supply", "must exceed p_exhaust (" + FormatBound(c.p_exhaust) + " Pa)");
+  }
+  for (int k = 0; k < 2; ++k) {
+    const ChamberConfig& ch = c.chamber[k];
+    std::string side = k == 0 ? "P." : "N.";
+    if (ch.flow == FlowLaw::kIso6358 && c.valve != ValveKind::kOnOff) {
+      return fail(side + "flow",
+                  "iso6358 rates a fully open on/off valve; proportional valves take flow=sanville or flow=thin_plate");
+    }
+    if (ch.model == PressureModel::kIdentified && c.valve == ValveKind::kOnOff) {
+      return fail(side + "pressure_model", "the identified model of paper 000 needs a proportional valve command");
+    }
+    if (ch.model == PressureModel::kIdentified) {
+      // paper 000 eq. 10e: the rate's denominator 1 + c6 v must stay positive over the stroke
+      double worst = 1 - std::fabs(ch.identified.c[6]) * c.stroke / 2;
+      if (worst <= 0) {
+        return fail(side + "c6", "1 + c6 x must stay positive for |x| <= stroke/2");
+      }
+    }
+  }
+  return c;
+}
+
+const std::vector<ParameterDoc>& Parameters() {
+  static const std::vector<ParameterDoc> docs = [] {
+    std::vector<ParameterDoc> out;
+    for (const Param& p : kParams) {
+      std::string scope = p.scope == Scope::kCylinder ? "cylinder" : "chamber";
+      if (p.applies != AppliesTo::kAll) scope += std::string(", ") + AppliesText(p.applies);
+      out.push_back({p.key, p.unit, p.default_value ? p.default_value : "required", ValidText(p), scope, p.meaning});
+    }
+    return out;
+  }();
+  return docs;
+}
+
+}  // namespace pneumatic

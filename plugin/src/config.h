@@ -1,0 +1,113 @@
+// Configuration of one pneumatic cylinder, read from the MJCF text element
+// "pneumatic:<cylinder>" and validated against the parameter table of
+// config.cc (which also documents every key: plugin/README.md, pneumo params).
+#ifndef PNEUMATIC_CONFIG_H_
+#define PNEUMATIC_CONFIG_H_
+
+#include <optional>
+#include <string>
+
+namespace pneumatic {
+
+// what meters air into the chambers
+enum class ValveKind {
+  kOnOff,                   // four on/off solenoid valves (paper 002 Fig. 1, Table I)
+  kProportional53,          // one 5/3 proportional valve (paper 001, Festo MPYE)
+  kProportionalPerChamber,  // one proportional 3/3 valve per chamber (paper 000 eq. 3)
+};
+
+// how the on/off valves are commanded
+enum class CommandInput {
+  kValves,  // u1..u4 in {0, 1}
+  kPwm,     // duty in [-1, 1] (paper 003 eqs. 12-13)
+};
+
+// mass flow through one valve port
+enum class FlowLaw {
+  kIso6358,    // sonic conductance and critical ratio (paper 002 eq. 4, paper 003 eq. 3)
+  kSanville,   // area form of paper 001 eq. 2
+  kThinPlate,  // isentropic thin-plate orifice (paper 000 eq. 1, Appendix)
+};
+
+// how a chamber's pressure evolves
+enum class PressureModel {
+  kPhysical,    // flow law + polytropic chamber (paper 000 eq. 4, paper 001 eq. 1)
+  kIdentified,  // identified p' = (s - p) r (paper 000 eqs. 6, 10, exact step 7)
+};
+
+// how the chamber ODE is advanced over one MuJoCo step
+enum class ChamberStep {
+  kExact,     // adaptive implicit integration inside the step (default)
+  kExplicit,  // act_dot = dp/dt at the start of the step: MuJoCo's plain Euler, for comparison only
+};
+
+// paper 000 eq. 10 parameters; v is the piston position x, v' its rate
+struct IdentifiedParams {
+  double c[10] = {0};     // c[1]..c[9]; c[0] unused so indices match the paper
+  double c_gamma = 0.1;   // V, fixed globally in the paper
+  double c_b = 0;         // Pa abs, (P_c + P_r)/2 unless given
+  double c_s = 0;         // Pa, (P_c - P_r)/2 unless given
+};
+
+struct ChamberConfig {
+  double area = 0;               // m^2 (m^3/rad for a rotary cylinder): piston area on this side
+  double dead_volume = 0;        // m^3: volume at the end of stroke (ports and tube included)
+  double polytropic_index = 0;   // n of p V^n = const for a sealed chamber
+  double work_factor = 0;        // alpha of paper 001 eq. 1 on the piston-work term (1: none)
+  PressureModel model = PressureModel::kPhysical;
+  FlowLaw flow = FlowLaw::kIso6358;
+  double discharge_coefficient = 0;  // C_d (sanville) or C (thin plate)
+  double critical_ratio = 0;         // b (iso6358) or P_cr (sanville)
+  double sonic_conductance = 0;      // C_val = C rho0, kg/(s Pa), per open on/off valve (iso6358)
+  double port_area = 0;              // m^2 per open on/off valve (sanville, thin plate)
+  // paper 000 eq. 3 valve of this chamber (kProportionalPerChamber)
+  double area_gain = 0;          // B, m^2/V
+  double u_supply_seal = 0;      // U_c, V
+  double u_exhaust_seal = 0;     // U_r, V
+  double leak_area_supply = 0;   // L_c, m^2
+  double leak_area_exhaust = 0;  // L_r, m^2
+  double area_smoothing = 0;     // m^2: the unit inside smax (the paper's mm^2)
+  IdentifiedParams identified;
+};
+
+struct CylinderConfig {
+  std::string name;
+  ValveKind valve = ValveKind::kOnOff;
+  CommandInput input = CommandInput::kValves;
+  double stroke = 0;           // m (rad for a rotary cylinder)
+  double x_mid = 0;            // actuator length at mid-stroke
+  double p_supply = 0;         // Pa abs
+  double p_exhaust = 0;        // Pa abs
+  double p_atm = 0;            // Pa abs, outside the piston; reference of the gauge activations
+  double temperature = 0;      // K, gas temperature (supply, chambers and exhaust alike)
+  double gas_constant = 0;     // J/(kg K), specific gas constant r
+  double heat_capacity_ratio = 0;  // gamma (kappa) of the flow laws
+  double compressibility = 0;      // Z of the thin-plate law
+  // kProportional53 spool (paper 001 eq. 1)
+  double spool_gain = 0;           // k_v, m/V
+  double spool_time_constant = 0;  // tau_v, s (0: spool follows the command at once)
+  double u_max = 0;                // V, command saturation
+  double orifice_gradient = 0;     // w, m^2/m
+  double deadband = 0;             // fraction of the full spool range 2 k_v u_max with no flow
+  // kOnOff switching
+  double delay_open = 0;       // s, opening delay of each valve (paper 002: 1.3 ms)
+  double delay_close = 0;      // s, closing delay (paper 002: 0.2 ms)
+  double pwm_frequency = 0;    // Hz; 0 with input=pwm: the averaged model of paper 003 eq. 14
+  // seal friction on top of the joint's (or tendon's) frictionloss
+  std::optional<double> coulomb_friction;  // N (N m): sliding friction level
+  double stribeck_velocity = 0;            // m/s (rad/s)
+  // numerical method
+  ChamberStep step = ChamberStep::kExact;
+  double step_tolerance = 0;   // local error per substep, fraction of p_supply - p_exhaust
+  ChamberConfig chamber[2];    // [0] = P, [1] = N
+};
+
+// Parses "key=value key=value ..." (whitespace separated) for cylinder `name`,
+// fills defaults and checks every value against the parameter table.
+// Returns nullopt and sets *error ("cylinder 'cyl': key 'x': ...") on failure.
+std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const std::string& text,
+                                                  std::string* error);
+
+}  // namespace pneumatic
+
+#endif  // PNEUMATIC_CONFIG_H_

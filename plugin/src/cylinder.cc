@@ -1,0 +1,275 @@
+#include "cylinder.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace pneumatic {
+namespace {
+
+std::string ActuatorName(const mjModel* m, int id) {
+  const char* name = mj_id2name(m, mjOBJ_ACTUATOR, id);
+  return name ? name : "#" + std::to_string(id);
+}
+
+// a valve command actuator's force must be zero: gaintype user (the extension returns 0)
+// or fixed gain 0, and no bias
+bool HasZeroForce(const mjModel* m, int id) {
+  bool zero_gain = m->actuator_gaintype[id] == mjGAIN_USER ||
+                   (m->actuator_gaintype[id] == mjGAIN_FIXED && m->actuator_gainprm[id * mjNGAIN] == 0);
+  return zero_gain && m->actuator_biastype[id] == mjBIAS_NONE;
+}
+
+bool SameTransmission(const mjModel* m, int a, int b) {
+  if (m->actuator_trntype[a] != m->actuator_trntype[b]) return false;
+  for (int i = 0; i < 2; ++i) {
+    if (m->actuator_trnid[2 * a + i] != m->actuator_trnid[2 * b + i]) return false;
+  }
+  for (int i = 0; i < 6; ++i) {
+    if (m->actuator_gear[6 * a + i] != m->actuator_gear[6 * b + i]) return false;
+  }
+  return true;
+}
+
+// the command a valve actuator holds: ctrl clamped to ctrlrange as MuJoCo clamps it
+double Command(const mjModel* m, const mjData* d, int id) {
+  double u = d->ctrl[id];
+  if (!std::isfinite(u)) return 0;  // MuJoCo zeroes bad controls too (mjWARN_BADCTRL)
+  if (m->actuator_ctrllimited[id] && !(m->opt.disableflags & mjDSBL_CLAMPCTRL)) {
+    u = std::clamp(u, m->actuator_ctrlrange[2 * id], m->actuator_ctrlrange[2 * id + 1]);
+  }
+  return u;
+}
+
+double Act(const mjModel* m, const mjData* d, int id) { return d->act[id - (m->nu - m->na)]; }
+
+}  // namespace
+
+std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig config, std::string* error) {
+  Cylinder c;
+  c.config_ = std::move(config);
+  const CylinderConfig& cfg = c.config_;
+  const std::string& name = cfg.name;
+  auto fail = [&](const std::string& actuator, const std::string& message) -> std::optional<Cylinder> {
+    *error = "cylinder '" + name + "': actuator '" + actuator + "': " + message;
+    return std::nullopt;
+  };
+
+  // the actuators this configuration needs, by role name
+  std::vector<std::string> commands;
+  switch (cfg.valve) {
+    case ValveKind::kOnOff:
+      commands = cfg.input == CommandInput::kPwm ? std::vector<std::string>{"duty"}
+                                                 : std::vector<std::string>{"u1", "u2", "u3", "u4"};
+      break;
+    case ValveKind::kProportional53: commands = {"u"}; break;
+    case ValveKind::kProportionalPerChamber: commands = {"uP", "uN"}; break;
+  }
+  // valve state holders: the command actuators themselves, or u1..u4 for delayed PWM valves
+  std::vector<std::string> states;
+  if (ValvesHaveState(cfg)) {
+    states = cfg.valve == ValveKind::kProportional53 ? std::vector<std::string>{"u"}
+                                                     : std::vector<std::string>{"u1", "u2", "u3", "u4"};
+  }
+  if (cfg.valve == ValveKind::kOnOff && cfg.input == CommandInput::kPwm && ValvesHaveState(cfg) &&
+      cfg.pwm_frequency == 0) {
+    *error = "cylinder '" + name + "': key 'delay_open': valve delays need switched PWM (pwm_frequency > 0), "
+             "the averaged model has no switching instants";
+    return std::nullopt;
+  }
+
+  // chambers: user dynamics and gain, no bias, one shared transmission
+  const char* chamber_names[2] = {"P", "N"};
+  for (int k = 0; k < 2; ++k) {
+    std::string full = name + "." + chamber_names[k];
+    int id = mj_name2id(m, mjOBJ_ACTUATOR, full.c_str());
+    if (id < 0) return fail(full, "missing: each cylinder needs actuators '" + name + ".P' and '" + name + ".N'");
+    if (m->actuator_dyntype[id] != mjDYN_USER) return fail(full, "needs dyntype=\"user\" (its act is the chamber's gauge pressure)");
+    if (m->actuator_gaintype[id] != mjGAIN_USER) return fail(full, "needs gaintype=\"user\" (force = area * gauge pressure)");
+    if (m->actuator_biastype[id] != mjBIAS_NONE) return fail(full, "needs biastype=\"none\"");
+    c.info_.chamber_actuator[k] = id;
+    c.actuators_.push_back({id, {Role::kChamber, -1, k}});
+  }
+  int p_id = c.info_.chamber_actuator[0], n_id = c.info_.chamber_actuator[1];
+  std::string p_name = name + ".P";
+  int trntype = m->actuator_trntype[p_id];
+  if (trntype == mjTRN_JOINT || trntype == mjTRN_JOINTINPARENT) {
+    int joint = m->actuator_trnid[2 * p_id];
+    if (m->jnt_type[joint] != mjJNT_SLIDE && m->jnt_type[joint] != mjJNT_HINGE) {
+      return fail(p_name, "a cylinder drives a slide or hinge joint, a slider-crank or a tendon; joint '" +
+                              std::string(mj_id2name(m, mjOBJ_JOINT, joint) ? mj_id2name(m, mjOBJ_JOINT, joint) : "?") +
+                              "' is a ball or free joint");
+    }
+  } else if (trntype != mjTRN_SLIDERCRANK && trntype != mjTRN_TENDON) {
+    return fail(p_name, "a cylinder drives a slide or hinge joint, a slider-crank or a tendon (site transmissions have no stroke)");
+  }
+  if (!SameTransmission(m, p_id, n_id)) {
+    return fail(name + ".N", "must use the same transmission and gear as '" + p_name + "'");
+  }
+
+  // valve commands and states
+  for (size_t i = 0; i < commands.size(); ++i) {
+    std::string full = name + "." + commands[i];
+    int id = mj_name2id(m, mjOBJ_ACTUATOR, full.c_str());
+    if (id < 0) return fail(full, "missing: this valve arrangement is commanded through its ctrl");
+    c.command_id_[i] = id;
+    c.info_.command_actuators.push_back({commands[i], id});
+  }
+  for (size_t i = 0; i < states.size(); ++i) {
+    std::string full = name + "." + states[i];
+    int id = mj_name2id(m, mjOBJ_ACTUATOR, full.c_str());
+    if (id < 0) return fail(full, "missing: it holds the state of a valve with delays");
+    c.state_id_[i] = id;
+  }
+  // valve actuators apply no force; those holding a valve state have user dynamics
+  std::vector<std::string> valve_roles = commands;
+  for (const std::string& role : states) {
+    if (std::find(commands.begin(), commands.end(), role) == commands.end()) valve_roles.push_back(role);
+  }
+  for (const std::string& role : valve_roles) {
+    std::string full = name + "." + role;
+    int id = mj_name2id(m, mjOBJ_ACTUATOR, full.c_str());
+    if (!HasZeroForce(m, id)) {
+      return fail(full, "a valve actuator applies no force: use gaintype=\"user\" (or gainprm=\"0\") and biastype=\"none\"");
+    }
+    auto state = std::find(states.begin(), states.end(), role);
+    bool stateful = state != states.end();
+    if (stateful && m->actuator_dyntype[id] != mjDYN_USER) {
+      return fail(full, cfg.valve == ValveKind::kProportional53
+                            ? "needs dyntype=\"user\": its act is the spool position (spool_time_constant > 0)"
+                            : "needs dyntype=\"user\": its act is the valve armature (delay_open/delay_close > 0)");
+    }
+    if (!stateful && m->actuator_dyntype[id] != mjDYN_NONE) {
+      return fail(full, "needs dyntype=\"none\": this valve has no state (no spool lag or switching delay)");
+    }
+    // index: which ValveInputs::state entry this actuator's act holds
+    int index = stateful ? static_cast<int>(state - states.begin()) : -1;
+    c.actuators_.push_back({id, {Role::kCommand, -1, index}});
+  }
+
+  // seal friction: Coulomb level below the transmission's frictionloss (the static level)
+  std::string friction_name = name + ".friction";
+  int friction_id = mj_name2id(m, mjOBJ_ACTUATOR, friction_name.c_str());
+  if (cfg.coulomb_friction) {
+    if (friction_id < 0) return fail(friction_name, "missing: coulomb_friction is applied through it");
+    if (m->actuator_dyntype[friction_id] != mjDYN_NONE || m->actuator_biastype[friction_id] != mjBIAS_USER ||
+        !(m->actuator_gaintype[friction_id] == mjGAIN_USER ||
+          (m->actuator_gaintype[friction_id] == mjGAIN_FIXED && m->actuator_gainprm[friction_id * mjNGAIN] == 0))) {
+      return fail(friction_name, "needs dyntype=\"none\", gaintype=\"user\" and biastype=\"user\"");
+    }
+    if (!SameTransmission(m, p_id, friction_id)) return fail(friction_name, "must use the same transmission as '" + p_name + "'");
+    double gear = std::fabs(m->actuator_gear[6 * p_id]);
+    int target = m->actuator_trnid[2 * p_id];
+    double frictionloss = trntype == mjTRN_TENDON     ? m->tendon_frictionloss[target]
+                          : trntype == mjTRN_SLIDERCRANK ? -1
+                                                      : m->dof_frictionloss[m->jnt_dofadr[target]];
+    if (frictionloss < 0) return fail(friction_name, "seal friction needs a joint or tendon transmission (its frictionloss is the static friction)");
+    c.static_friction_ = gear > 0 ? frictionloss / gear : 0;
+    if (*cfg.coulomb_friction > c.static_friction_) {
+      *error = "cylinder '" + name + "': key 'coulomb_friction': " + std::to_string(*cfg.coulomb_friction) +
+               " exceeds the static friction, the frictionloss of the transmission (" +
+               std::to_string(c.static_friction_) + "); set frictionloss to the static level";
+      return std::nullopt;
+    }
+    c.actuators_.push_back({friction_id, {Role::kFriction, -1, 0}});
+  } else if (friction_id >= 0) {
+    return fail(friction_name, "present but coulomb_friction is not set");
+  }
+
+  // every other "<name>.*" actuator is a typo or belongs to another valve arrangement
+  std::string prefix = name + ".";
+  for (int id = 0; id < m->nu; ++id) {
+    std::string actuator = ActuatorName(m, id);
+    if (actuator.rfind(prefix, 0) != 0) continue;
+    bool known = std::any_of(c.actuators_.begin(), c.actuators_.end(), [&](const auto& a) { return a.first == id; });
+    if (!known) return fail(actuator, "has no role in this cylinder (valve and input decide the command actuators)");
+  }
+
+  c.info_.name = name;
+  c.info_.p_atm = cfg.p_atm;
+  c.info_.p_supply = cfg.p_supply;
+  c.info_.p_exhaust = cfg.p_exhaust;
+  c.info_.x_mid = cfg.x_mid;
+  for (int k = 0; k < 2; ++k) c.chamber_model_[k] = MakeChamberModel(cfg, k);
+  return c;
+}
+
+ValveInputs Cylinder::ReadValves(const mjModel* m, const mjData* d) const {
+  ValveInputs in;
+  in.time = d->time;
+  in.step = m->opt.timestep;
+  for (int i = 0; i < 4; ++i) {
+    if (command_id_[i] >= 0) in.command[i] = Command(m, d, command_id_[i]);
+    if (state_id_[i] >= 0) in.state[i] = Act(m, d, state_id_[i]);
+  }
+  return in;
+}
+
+VolumePath Cylinder::Volume(const mjModel* m, const mjData* d, int chamber) const {
+  const ChamberConfig& k = config_.chamber[chamber];
+  double x = PistonPosition(m, d, info_), x_rate = PistonVelocity(m, d, info_);
+  // chamber P grows with x, chamber N shrinks (rigs.md volumes)
+  double sign = chamber == 0 ? 1.0 : -1.0;
+  double swept = std::clamp(config_.stroke / 2 + sign * x, 0.0, config_.stroke);
+  VolumePath v;
+  v.volume = k.dead_volume + k.area * swept;
+  v.volume_rate = sign * k.area * x_rate;
+  v.min_volume = k.dead_volume;
+  v.max_volume = k.dead_volume + k.area * config_.stroke;
+  return v;
+}
+
+double Cylinder::ChamberActDot(const mjModel* m, const mjData* d, int chamber) const {
+  const ChamberConfig& k = config_.chamber[chamber];
+  double h = m->opt.timestep;
+  double p0 = Act(m, d, info_.chamber_actuator[chamber]) + config_.p_atm;
+  ValveInputs valves = ReadValves(m, d);
+  if (k.model == PressureModel::kIdentified) {
+    // the chamber's own valve voltage, or the single 5/3 valve's duplicated (paper 000 Section V)
+    double u = config_.valve == ValveKind::kProportionalPerChamber ? valves.command[chamber] : valves.command[0];
+    SteadyStateAndRate sr = IdentifiedModel(k.identified, u, PistonPosition(m, d, info_), PistonVelocity(m, d, info_));
+    if (config_.step == ChamberStep::kExplicit) return (sr.s - p0) * sr.r;
+    return (IdentifiedPressureStep(sr, p0, h) - p0) / h;
+  }
+  PortSchedule ports(config_, chamber, valves);
+  VolumePath volume = Volume(m, d, chamber);
+  if (config_.step == ChamberStep::kExplicit) {
+    return PressureRate(chamber_model_[chamber], ports.At(0), p0, volume.volume, volume.volume_rate);
+  }
+  return (PhysicalPressureStep(chamber_model_[chamber], ports, volume, p0, h) - p0) / h;
+}
+
+double Cylinder::ValveActDot(const mjModel* m, const mjData* d, int valve) const {
+  ValveInputs valves = ReadValves(m, d);
+  return (ValveStateAtEnd(config_, valve, valves) - valves.state[valve]) / m->opt.timestep;
+}
+
+double Cylinder::ChamberGain(int chamber) const {
+  // force A_P (p_P - p_atm) - A_N (p_N - p_atm), rigs.md; paper 001 eq. (1)
+  return chamber == 0 ? config_.chamber[0].area : -config_.chamber[1].area;
+}
+
+double Cylinder::FrictionBias(const mjModel* m, const mjData* d) const {
+  // frictionloss holds the piston up to the static level; once sliding, this term gives back
+  // the difference so the sliding friction falls to the Coulomb level (Stribeck-like)
+  double v = PistonVelocity(m, d, info_);
+  return (static_friction_ - config_.coulomb_friction.value_or(static_friction_)) *
+         std::tanh(v / config_.stribeck_velocity);
+}
+
+double PistonPosition(const mjModel*, const mjData* d, const CylinderInfo& c) {
+  return d->actuator_length[c.chamber_actuator[0]] - c.x_mid;
+}
+
+double PistonVelocity(const mjModel*, const mjData* d, const CylinderInfo& c) {
+  return d->actuator_velocity[c.chamber_actuator[0]];
+}
+
+double ChamberPressure(const mjModel* m, const mjData* d, const CylinderInfo& c, Chamber k) {
+  return Act(m, d, c.chamber_actuator[static_cast<int>(k)]) + c.p_atm;
+}
+
+void SetChamberPressure(const mjModel* m, mjData* d, const CylinderInfo& c, Chamber k, double pressure) {
+  d->act[c.chamber_actuator[static_cast<int>(k)] - (m->nu - m->na)] = pressure - c.p_atm;
+}
+
+}  // namespace pneumatic

@@ -1,0 +1,42 @@
+// Mass flow through one valve port: the three flow laws of the papers.
+//
+// Every law is written for an upstream pressure pu >= downstream pd; when
+// pd > pu the same law runs in reverse, Q(pu, pd) = -Q(pd, pu), so flows are
+// signed, positive from the first argument to the second.
+#ifndef PNEUMATIC_FLOW_H_
+#define PNEUMATIC_FLOW_H_
+
+#include "config.h"
+
+namespace pneumatic {
+
+// constants of one port's flow law, computed once at attach time
+struct FlowLawConstants {
+  FlowLaw law = FlowLaw::kIso6358;
+  // elliptic laws (iso6358, sanville): Q = gain * opening * pu * sqrt(1 - ((pd/pu - b)/(1 - b))^2)
+  double gain = 0;            // iso6358: 1 (opening is C_val); sanville: C1 C_d / sqrt(T), s/m
+  double critical_ratio = 0;  // b, P_cr
+  // thin plate (paper 000 eq. 1c and Appendix eqs. 11-13)
+  double alpha = 0, beta = 0, theta = 0, kappa = 0;
+};
+
+// ISO 6358 law (paper 002 eq. 4, paper 003 eq. 3): opening = C_val, kg/(s Pa).
+FlowLawConstants Iso6358Constants(double critical_ratio);
+
+// Paper 001 eq. 2: opening = orifice area (m^2);
+// C1 = sqrt(gamma/r (2/(gamma+1))^((gamma+1)/(gamma-1))).
+FlowLawConstants SanvilleConstants(double discharge_coefficient, double critical_ratio, double gamma,
+                                   double gas_constant, double temperature);
+
+// Paper 000 eq. 1 with eqs. 11-13; opening = orifice area (m^2). With the
+// specific gas constant r = R/M, 2M/(Z R T) = 2/(Z r T).
+FlowLawConstants ThinPlateConstants(double discharge_coefficient, double kappa, double compressibility,
+                                    double gas_constant, double temperature);
+
+// Signed mass flow (kg/s) from pressure p_from to p_to (Pa abs) through a port
+// of the given opening (C_val for iso6358, area for the others).
+double MassFlow(const FlowLawConstants& law, double opening, double p_from, double p_to);
+
+}  // namespace pneumatic
+
+#endif  // PNEUMATIC_FLOW_H_

@@ -1,0 +1,152 @@
+// pneumo: the command line of the pneumatic extension for MuJoCo 2.2.
+//
+//   pneumo rollout MODEL.xml --commands LOG.csv --out OUT.csv   replay a log open loop
+//   pneumo rollout MODEL.xml --duration 2 --set cyl.u=2.5 --out OUT.csv
+//   pneumo info MODEL.xml                                       cylinders and their signals
+//   pneumo params [--markdown]                                  the MJCF parameter table
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+#include <set>
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <mujoco/mujoco.h>
+
+#include "log_csv.h"
+#include "pneumatic/pneumatic.h"
+#include "rollout.h"
+
+namespace {
+
+// a model loaded from MJCF and attached to the extension, released in order
+struct AttachedModel {
+  mjModel* model = nullptr;
+  ~AttachedModel() {
+    if (model) {
+      pneumatic::Detach(model);
+      mj_deleteModel(model);
+    }
+  }
+};
+
+int Fail(const std::string& message) {
+  std::fprintf(stderr, "pneumo: %s\n", message.c_str());
+  return 1;
+}
+
+// loads and attaches; an empty string on success
+std::string Load(const std::string& path, AttachedModel* out) {
+  char error[1000] = "";
+  out->model = mj_loadXML(path.c_str(), nullptr, error, sizeof(error));
+  if (!out->model) return path + ": " + error;
+  std::string attach_error;
+  if (!pneumatic::Attach(out->model, &attach_error)) return path + ": " + attach_error;
+  return "";
+}
+
+int RunRollout(const std::string& model_path, const std::string& commands_path, const std::string& out_path,
+               double duration, double period, const std::vector<std::string>& sets) {
+  AttachedModel model;
+  if (std::string e = Load(model_path, &model); !e.empty()) return Fail(e);
+  const mjModel* m = model.model;
+
+  pneumatic::RolloutOptions options;
+  options.duration = duration;
+  options.period = period;
+  for (const std::string& s : sets) {
+    size_t eq = s.find('=');
+    char* end = nullptr;
+    double value = eq == std::string::npos ? 0 : std::strtod(s.c_str() + eq + 1, &end);
+    if (eq == std::string::npos || end == s.c_str() + eq + 1 || *end != '\0' || !std::isfinite(value)) {
+      return Fail("--set '" + s + "': expected <cylinder>.<signal>=<number>, e.g. cyl.u=2.5");
+    }
+    options.constant_commands[s.substr(0, eq)] = value;
+  }
+
+  std::optional<pneumatic::log::Log> commands;
+  if (!commands_path.empty()) {
+    pneumatic::log::ReadOptions read;
+    for (const auto& c : pneumatic::Cylinders(m)) read.cylinders.insert(c.name);
+    pneumatic::log::ReadResult r = pneumatic::log::ReadLog(commands_path, read);
+    if (!r.log) return Fail(r.error);
+    commands = std::move(r.log);
+  }
+
+  auto start = std::chrono::steady_clock::now();
+  pneumatic::RolloutResult result = pneumatic::Rollout(m, commands ? &*commands : nullptr, options);
+  if (!result.log) return Fail(result.error);
+  double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.log->comments.insert(result.log->comments.begin(), "model: " + model_path);
+  if (!commands_path.empty()) result.log->comments.insert(result.log->comments.begin() + 1, "commands: " + commands_path);
+  if (std::string e = pneumatic::log::WriteLog(out_path, *result.log); !e.empty()) return Fail(e);
+  const auto& t = result.log->time;
+  std::fprintf(stderr, "pneumo: wrote %s: %zu rows, %.3f s simulated in %.3f s\n", out_path.c_str(), t.size(),
+               t.empty() ? 0.0 : t.back() - t.front() + result.log->Period(), wall);
+  return 0;
+}
+
+int RunInfo(const std::string& model_path) {
+  AttachedModel model;
+  if (std::string e = Load(model_path, &model); !e.empty()) return Fail(e);
+  const mjModel* m = model.model;
+  std::printf("%s: timestep %g s, %d actuators, %zu pneumatic cylinders\n", model_path.c_str(), m->opt.timestep,
+              m->nu, pneumatic::Cylinders(m).size());
+  for (const auto& c : pneumatic::Cylinders(m)) {
+    std::printf("cylinder %s: p_supply %g Pa, p_exhaust %g Pa, p_atm %g Pa\n  commands:", c.name.c_str(), c.p_supply,
+                c.p_exhaust, c.p_atm);
+    for (const auto& [signal, id] : c.command_actuators) std::printf(" %s.%s", c.name.c_str(), signal.c_str());
+    std::printf("\n  measured: %s.p_P %s.p_N %s.x %s.v %s.p_S\n", c.name.c_str(), c.name.c_str(), c.name.c_str(),
+                c.name.c_str(), c.name.c_str());
+  }
+  return 0;
+}
+
+int RunParams(bool markdown) {
+  const auto& params = pneumatic::Parameters();
+  if (markdown) {
+    std::printf("| key | unit | default | valid | scope | meaning |\n|---|---|---|---|---|---|\n");
+    for (const auto& p : params) {
+      std::printf("| `%s` | %s | %s | %s | %s | %s |\n", p.key.c_str(), p.unit.c_str(), p.default_value.c_str(),
+                  p.valid.c_str(), p.scope.c_str(), p.meaning.c_str());
+    }
+    return 0;
+  }
+  for (const auto& p : params) {
+    std::printf("%-22s %-14s default %-24s valid %s\n  %s; %s\n", p.key.c_str(), p.unit.c_str(), p.default_value.c_str(),
+                p.valid.c_str(), p.scope.c_str(), p.meaning.c_str());
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"pneumo: pneumatic actuators for MuJoCo 2.2"};
+  app.require_subcommand(1);
+
+  std::string model_path, commands_path, out_path;
+  double duration = -1, period = 0;
+  std::vector<std::string> sets;
+  CLI::App* rollout = app.add_subcommand("rollout", "replay a log's commands open loop from its first measured state");
+  rollout->add_option("model", model_path, "MJCF model with pneumatic cylinders")->required();
+  rollout->add_option("--commands", commands_path, "log (shared/spec/log_format.md) whose command columns are replayed");
+  rollout->add_option("--out", out_path, "simulated log to write")->required();
+  rollout->add_option("--duration", duration, "seconds to simulate (the whole log by default)");
+  rollout->add_option("--period", period, "row period without a command log, s (default 1 ms)");
+  rollout->add_option("--set", sets, "constant command, e.g. --set cyl.u=2.5 (repeatable)");
+
+  CLI::App* info = app.add_subcommand("info", "list a model's cylinders and their log signals");
+  info->add_option("model", model_path, "MJCF model")->required();
+
+  bool markdown = false;
+  CLI::App* params = app.add_subcommand("params", "print the MJCF parameter table");
+  params->add_flag("--markdown", markdown, "as a Markdown table");
+
+  CLI11_PARSE(app, argc, argv);
+  if (*rollout) return RunRollout(model_path, commands_path, out_path, duration, period, sets);
+  if (*info) return RunInfo(model_path);
+  if (*params) return RunParams(markdown);
+  return 2;
+}

@@ -1,0 +1,158 @@
+#include "rollout.h"
+
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include "pneumatic/pneumatic.h"
+
+namespace pneumatic {
+namespace {
+
+// a command column of the output and the actuator whose ctrl it drives
+struct CommandSlot {
+  log::Column column;
+  int actuator = -1;
+  int source = -1;        // column index in the command log, -1 if constant
+  double constant = 0;
+};
+
+// the joint a cylinder drives directly, or -1 (tendon, slider-crank)
+int DrivenJoint(const mjModel* m, const CylinderInfo& c) {
+  int id = c.chamber_actuator[0];
+  int type = m->actuator_trntype[id];
+  return (type == mjTRN_JOINT || type == mjTRN_JOINTINPARENT) ? m->actuator_trnid[2 * id] : -1;
+}
+
+}  // namespace
+
+RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutOptions& options) {
+  RolloutResult result;
+  auto fail = [&](const std::string& message) {
+    result.error = message;
+    return result;
+  };
+  if (!IsAttached(m)) return fail("the model is not attached to the pneumatic extension");
+  std::vector<CylinderInfo> cylinders = Cylinders(m);
+  if (cylinders.empty()) return fail("the model has no pneumatic cylinder (no <text name=\"pneumatic:...\">)");
+
+  // rows: from the log, or a constant-command run of `duration`
+  double timestep = m->opt.timestep;
+  double period = 0, t0 = 0;
+  size_t rows = 0;
+  if (commands) {
+    if (commands->rows() < 2) return fail("the command log needs at least two rows to define its period");
+    period = commands->Period();
+    t0 = commands->time[0];
+    rows = commands->rows();
+    if (options.duration >= 0) {
+      rows = 0;
+      while (rows < commands->rows() && commands->time[rows] - t0 < options.duration - 1e-9 * period) ++rows;
+    }
+  } else {
+    if (!(options.duration > 0)) return fail("without a command log, --duration must be positive");
+    period = options.period > 0 ? options.period : std::max(1.0, std::round(1e-3 / timestep)) * timestep;
+    rows = static_cast<size_t>(std::ceil(options.duration / period - 1e-9));
+  }
+  double steps_per_row = period / timestep;
+  long steps = std::lround(steps_per_row);
+  if (steps < 1 || std::fabs(steps_per_row - static_cast<double>(steps)) > 1e-6 * steps_per_row) {
+    return fail("the row period " + std::to_string(period) + " s is not a whole number of model timesteps (" +
+                std::to_string(timestep) + " s)");
+  }
+
+  // command columns: every command signal of every cylinder, from the log or constant
+  std::vector<CommandSlot> slots;
+  std::map<std::string, double> unused = options.constant_commands;
+  for (const CylinderInfo& c : cylinders) {
+    for (const auto& [signal, actuator] : c.command_actuators) {
+      CommandSlot slot{{c.name, signal}, actuator, -1, 0};
+      std::string name = slot.column.name();
+      if (auto it = unused.find(name); it != unused.end()) {
+        slot.constant = it->second;
+        unused.erase(it);
+      } else if (commands) {
+        slot.source = commands->FindColumn(c.name, signal);
+        if (slot.source < 0) return fail("the command log has no column '" + name + "' (cylinder '" + c.name + "' is commanded through it)");
+      }
+      slots.push_back(slot);
+    }
+  }
+  if (!unused.empty()) return fail("'" + unused.begin()->first + "' is not a command of any cylinder in the model");
+  if (commands) {
+    for (const log::Column& column : commands->columns) {
+      const log::SignalInfo* info = log::FindSignal(column.signal);
+      if (info->kind != log::SignalKind::kCommand) continue;
+      bool used = false;
+      for (const CommandSlot& s : slots) used |= s.column.name() == column.name();
+      if (!used) return fail("log column '" + column.name() + "' is not a command of cylinder '" + column.cylinder + "'");
+    }
+  }
+
+  // output columns: commands, then the measured signals of each cylinder
+  log::Log out;
+  out.comments.push_back("simulated by pneumo rollout");
+  for (const CommandSlot& s : slots) out.columns.push_back(s.column);
+  const char* measured[] = {"p_P", "p_N", "x", "v", "p_S"};
+  for (const CylinderInfo& c : cylinders) {
+    for (const char* signal : measured) out.columns.push_back({c.name, signal});
+  }
+  out.values.assign(out.columns.size(), {});
+
+  // initial state from the first row
+  std::unique_ptr<mjData, void (*)(mjData*)> d(mj_makeData(m), mj_deleteData);
+  if (!d) return fail("mj_makeData failed");
+  d->time = t0;
+  if (commands) {
+    auto first = [&](const std::string& cyl, const char* signal, double* value) {
+      int col = commands->FindColumn(cyl, signal);
+      if (col >= 0) *value = commands->values[col][0];
+      return col >= 0;
+    };
+    for (const CylinderInfo& c : cylinders) {
+      double value = 0;
+      if (first(c.name, "p_P", &value)) SetChamberPressure(m, d.get(), c, Chamber::kP, value);
+      if (first(c.name, "p_N", &value)) SetChamberPressure(m, d.get(), c, Chamber::kN, value);
+      int joint = DrivenJoint(m, c);
+      double gear = m->actuator_gear[6 * c.chamber_actuator[0]];
+      bool has_x = commands->FindColumn(c.name, "x") >= 0, has_v = commands->FindColumn(c.name, "v") >= 0;
+      if ((has_x || has_v) && joint < 0) {
+        return fail("cylinder '" + c.name + "' drives a tendon or slider-crank: its initial x and v cannot be set from the log");
+      }
+      if (first(c.name, "x", &value)) d->qpos[m->jnt_qposadr[joint]] = (value + c.x_mid) / gear;
+      if (first(c.name, "v", &value)) d->qvel[m->jnt_dofadr[joint]] = value / gear;
+    }
+  }
+
+  // replay: set the row's commands, sample, then hold them for one period
+  for (size_t row = 0; row < rows; ++row) {
+    for (size_t i = 0; i < slots.size(); ++i) {
+      const CommandSlot& s = slots[i];
+      double u = s.source >= 0 ? commands->values[s.source][row] : s.constant;
+      d->ctrl[s.actuator] = u;
+      out.values[i].push_back(u);
+    }
+    mj_forward(m, d.get());
+    size_t col = slots.size();
+    for (const CylinderInfo& c : cylinders) {
+      out.values[col++].push_back(ChamberPressure(m, d.get(), c, Chamber::kP));
+      out.values[col++].push_back(ChamberPressure(m, d.get(), c, Chamber::kN));
+      out.values[col++].push_back(PistonPosition(m, d.get(), c));
+      out.values[col++].push_back(PistonVelocity(m, d.get(), c));
+      out.values[col++].push_back(c.p_supply);
+    }
+    out.time.push_back(commands ? commands->time[row] : t0 + static_cast<double>(row) * period);
+    for (long k = 0; k < steps; ++k) mj_step(m, d.get());
+    // MuJoCo resets the state after a non-finite one: a replay must not carry on from there
+    for (int w : {mjWARN_BADQACC, mjWARN_BADQVEL, mjWARN_BADQPOS, mjWARN_BADCTRL}) {
+      if (d->warning[w].number > 0) {
+        return fail("the simulation diverged or got a non-finite command near t = " + std::to_string(d->time) +
+                    " s (MuJoCo warning " + std::to_string(w) + ")");
+      }
+    }
+  }
+  result.log = std::move(out);
+  return result;
+}
+
+}  // namespace pneumatic

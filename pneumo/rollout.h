@@ -1,0 +1,44 @@
+// Open-loop rollout: replay the command columns of a log through a model with
+// the pneumatic extension attached, and record the simulated log.
+#ifndef PNEUMATIC_ROLLOUT_H_
+#define PNEUMATIC_ROLLOUT_H_
+
+#include <map>
+#include <optional>
+#include <string>
+
+#include <mujoco/mujoco.h>
+
+#include "log_csv.h"
+
+namespace pneumatic {
+
+struct RolloutOptions {
+  // simulate only rows with time - time[0] < duration (s); < 0: the whole log.
+  // Without a command log: the length of the run (required).
+  double duration = -1;
+  // constant commands "<cylinder>.<signal>" -> value, overriding (or, without a
+  // log, setting) that command column for every row; unset commands are 0
+  std::map<std::string, double> constant_commands;
+  // sample period of the output without a command log (s); 0: 1 ms rounded to whole steps
+  double period = 0;
+};
+
+struct RolloutResult {
+  std::optional<log::Log> log;  // the simulated log, or nullopt and `error`
+  std::string error;
+};
+
+// Replays `commands` (may be null) through m, which must be attached.
+// The state starts from the log's first row: chamber pressures p_P, p_N and
+// the position x and velocity v of joint-driven cylinders; what the log does
+// not give starts from the model's reset state (atmospheric chambers, qpos0).
+// Each row's commands are held for one row period (zero-order hold), which
+// must be a whole number of model timesteps. The result has the command
+// columns as given and, for every cylinder, the measured columns p_P, p_N, x,
+// v, p_S sampled at each row's time before that row's command acts.
+RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutOptions& options);
+
+}  // namespace pneumatic
+
+#endif  // PNEUMATIC_ROLLOUT_H_
