@@ -103,7 +103,8 @@ double PhysicalPressureStep(const ChamberModel& k, const PortSchedule& ports, co
       double half = BackwardEulerSubstep(k, at_mid, p, v_start, v_mid, s / 2);
       half = BackwardEulerSubstep(k, at_next, half, v_mid, v_next, s / 2);
       double error = std::fabs(half - full);
-      if (error > k.tolerance && s > min_substep) {
+      // at the smallest substep accept anyway (compare the requested size: s = next - tau may round above it)
+      if (error > k.tolerance && substep > min_substep) {
         substep = std::max(s * std::max(0.2, 0.9 * std::sqrt(k.tolerance / error)), min_substep);
         continue;
       }

@@ -293,6 +293,12 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
   RawValues raw;
   if (!parser.Split(text, &raw)) return std::nullopt;
 
+  // "<cylinder>.<role>" names the actuators and "<cylinder>.<signal>" the log columns
+  if (name.find('.') != std::string::npos || name.find_first_of(" \t,") != std::string::npos) {
+    *error = "cylinder '" + name + "': a cylinder name cannot contain '.', ',' or spaces "
+             "(actuators are named <cylinder>.<role>, log columns <cylinder>.<signal>)";
+    return std::nullopt;
+  }
   CylinderConfig c;
   c.name = name;
 
@@ -344,6 +350,19 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
     }
   }
   if (raw.cylinder.count("coulomb_friction")) c.coulomb_friction = 0.0;
+
+  // choices given where they do not apply, and choices that rule each other out
+  for (const Param& p : kParams) {
+    if (!p.choices || p.scope != Scope::kCylinder) continue;
+    if (raw.cylinder.count(p.key) && !Applies(p.applies, c, nullptr)) {
+      return fail(p.key, std::string("applies only to ") + AppliesText(p.applies));
+    }
+  }
+  for (int k = 0; k < 2; ++k) {
+    if (c.chamber[k].model == PressureModel::kIdentified && c.valve == ValveKind::kOnOff) {
+      return fail(prefixed(k, "pressure_model"), "the identified model of paper 000 needs a proportional valve command");
+    }
+  }
 
   // numbers: given value or default, range-checked, stored by key
   std::map<std::string, double> cylinder_numbers, chamber_numbers[2];
@@ -428,9 +447,6 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
     if (ch.flow == FlowLaw::kIso6358 && c.valve != ValveKind::kOnOff) {
       return fail(side + "flow",
                   "iso6358 rates a fully open on/off valve; proportional valves take flow=sanville or flow=thin_plate");
-    }
-    if (ch.model == PressureModel::kIdentified && c.valve == ValveKind::kOnOff) {
-      return fail(side + "pressure_model", "the identified model of paper 000 needs a proportional valve command");
     }
     if (ch.model == PressureModel::kIdentified) {
       // paper 000 eq. 10e: the rate's denominator 1 + c6 v must stay positive over the stroke

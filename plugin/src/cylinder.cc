@@ -72,8 +72,8 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
   }
   if (cfg.valve == ValveKind::kOnOff && cfg.input == CommandInput::kPwm && ValvesHaveState(cfg) &&
       cfg.pwm_frequency == 0) {
-    *error = "cylinder '" + name + "': key 'delay_open': valve delays need switched PWM (pwm_frequency > 0), "
-             "the averaged model has no switching instants";
+    *error = "cylinder '" + name + "': key '" + (cfg.delay_open > 0 ? "delay_open" : "delay_close") +
+             "': valve delays need switched PWM (pwm_frequency > 0), the averaged model has no switching instants";
     return std::nullopt;
   }
 
@@ -86,6 +86,8 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
     if (m->actuator_dyntype[id] != mjDYN_USER) return fail(full, "needs dyntype=\"user\" (its act is the chamber's gauge pressure)");
     if (m->actuator_gaintype[id] != mjGAIN_USER) return fail(full, "needs gaintype=\"user\" (force = area * gauge pressure)");
     if (m->actuator_biastype[id] != mjBIAS_NONE) return fail(full, "needs biastype=\"none\"");
+    if (m->actuator_actlimited[id]) return fail(full, "must not be actlimited: MuJoCo would clip the chamber pressure");
+    if (m->actuator_gear[6 * id] == 0) return fail(full, "gear is 0: the cylinder could neither move nor push");
     c.info_.chamber_actuator[k] = id;
     c.actuators_.push_back({id, {Role::kChamber, -1, k}});
   }
@@ -137,6 +139,9 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
       return fail(full, cfg.valve == ValveKind::kProportional53
                             ? "needs dyntype=\"user\": its act is the spool position (spool_time_constant > 0)"
                             : "needs dyntype=\"user\": its act is the valve armature (delay_open/delay_close > 0)");
+    }
+    if (stateful && m->actuator_actlimited[id]) {
+      return fail(full, "must not be actlimited: MuJoCo would clip the valve state");
     }
     if (!stateful && m->actuator_dyntype[id] != mjDYN_NONE) {
       return fail(full, "needs dyntype=\"none\": this valve has no state (no spool lag or switching delay)");

@@ -1,0 +1,92 @@
+// Helpers shared by the tests: MJCF from a string, a model that detaches and
+// frees itself, and a fixture that turns MuJoCo warnings into failures.
+#ifndef PNEUMATIC_TESTS_TEST_UTIL_H_
+#define PNEUMATIC_TESTS_TEST_UTIL_H_
+
+#include <cstring>
+#include <memory>
+#include <string>
+
+#include <gtest/gtest.h>
+#include <mujoco/mujoco.h>
+
+#include "pneumatic/pneumatic.h"
+
+namespace pneumatic::testing {
+
+// compiles MJCF text through MuJoCo's virtual file system; null and *error on failure
+inline mjModel* LoadModelFromString(const std::string& xml, std::string* error) {
+  auto vfs = std::make_unique<mjVFS>();
+  mj_defaultVFS(vfs.get());
+  mj_makeEmptyFileVFS(vfs.get(), "model.xml", static_cast<int>(xml.size()));
+  std::memcpy(vfs->filedata[0], xml.data(), xml.size());
+  char buffer[1000] = "";
+  mjModel* m = mj_loadXML("model.xml", vfs.get(), buffer, sizeof(buffer));
+  mj_deleteVFS(vfs.get());
+  if (!m && error) *error = buffer;
+  return m;
+}
+
+// a model with the extension attached, released in the right order
+class AttachedModel {
+ public:
+  AttachedModel() = default;
+  AttachedModel(const AttachedModel&) = delete;
+  AttachedModel& operator=(const AttachedModel&) = delete;
+  ~AttachedModel() { Reset(); }
+
+  // loads (from a string, or a file when from_file) and attaches; false and error() on failure
+  bool Load(const std::string& xml_or_path, bool from_file = false) {
+    Reset();
+    error_.clear();
+    if (from_file) {
+      char buffer[1000] = "";
+      model_ = mj_loadXML(xml_or_path.c_str(), nullptr, buffer, sizeof(buffer));
+      if (!model_) error_ = buffer;
+    } else {
+      model_ = LoadModelFromString(xml_or_path, &error_);
+    }
+    if (!model_) return false;
+    if (!Attach(model_, &error_)) return false;
+    data_ = mj_makeData(model_);
+    return true;
+  }
+
+  void Reset() {
+    if (data_) mj_deleteData(data_);
+    if (model_) {
+      Detach(model_);
+      mj_deleteModel(model_);
+    }
+    data_ = nullptr, model_ = nullptr;
+  }
+
+  mjModel* m() const { return model_; }
+  mjData* d() const { return data_; }
+  const std::string& error() const { return error_; }
+  CylinderInfo cylinder(size_t i = 0) const { return Cylinders(model_).at(i); }
+  int actuator(const std::string& name) const { return mj_name2id(model_, mjOBJ_ACTUATOR, name.c_str()); }
+
+ private:
+  mjModel* model_ = nullptr;
+  mjData* data_ = nullptr;
+  std::string error_;
+};
+
+// path of a model shipped in models_mjcf/
+inline std::string ShippedModel(const std::string& file) { return std::string(PNEUMATIC_MODELS_DIR) + "/" + file; }
+
+// any MuJoCo warning during a test is a failure (as in MuJoCo's own tests)
+class MujocoTest : public ::testing::Test {
+ protected:
+  void SetUp() override { previous_ = mju_user_warning, mju_user_warning = OnWarning; }
+  void TearDown() override { mju_user_warning = previous_; }
+
+ private:
+  static void OnWarning(const char* message) { ADD_FAILURE() << "MuJoCo warning: " << message; }
+  void (*previous_)(const char*) = nullptr;
+};
+
+}  // namespace pneumatic::testing
+
+#endif  // PNEUMATIC_TESTS_TEST_UTIL_H_
