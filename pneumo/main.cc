@@ -47,7 +47,7 @@ std::string Load(const std::string& path, AttachedModel* out) {
 }
 
 int RunRollout(const std::string& model_path, const std::string& commands_path, const std::string& out_path,
-               double duration, double period, const std::vector<std::string>& sets) {
+               double duration, double period, const std::vector<std::string>& sets, bool follow_motion) {
   AttachedModel model;
   if (std::string e = Load(model_path, &model); !e.empty()) return Fail(e);
   const mjModel* m = model.model;
@@ -55,6 +55,7 @@ int RunRollout(const std::string& model_path, const std::string& commands_path, 
   pneumatic::RolloutOptions options;
   options.duration = duration;
   options.period = period;
+  options.follow_motion = follow_motion;
   for (const std::string& s : sets) {
     size_t eq = s.find('=');
     char* end = nullptr;
@@ -136,6 +137,9 @@ int main(int argc, char** argv) {
   rollout->add_option("--duration", duration, "seconds to simulate (the whole log by default)");
   rollout->add_option("--period", period, "row period without a command log, s (default 1 ms)");
   rollout->add_option("--set", sets, "constant command, e.g. --set cyl.u=2.5 (repeatable)");
+  bool follow_motion = false;
+  rollout->add_flag("--follow-motion", follow_motion,
+                    "reset pistons to the log's x and v at every row: simulate pressures only (paper 000 V.D)");
 
   CLI::App* info = app.add_subcommand("info", "list a model's cylinders and their log signals");
   info->add_option("model", model_path, "MJCF model")->required();
@@ -145,7 +149,7 @@ int main(int argc, char** argv) {
   params->add_flag("--markdown", markdown, "as a Markdown table");
 
   CLI11_PARSE(app, argc, argv);
-  if (*rollout) return RunRollout(model_path, commands_path, out_path, duration, period, sets);
+  if (*rollout) return RunRollout(model_path, commands_path, out_path, duration, period, sets, follow_motion);
   if (*info) return RunInfo(model_path);
   if (*params) return RunParams(markdown);
   return 2;

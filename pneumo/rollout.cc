@@ -99,33 +99,70 @@ RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutO
   }
   out.values.assign(out.columns.size(), {});
 
+  // the measured motion of joint-driven pistons, written into qpos and qvel. With `step` >= 0 the
+  // piston is placed on the cubic Hermite curve through the row's and the next row's x and v, at
+  // model step `step` of the row, with the velocity that takes it to the curve's next point
+  auto set_motion = [&](mjData* data, size_t row, long step) -> std::string {
+    for (const CylinderInfo& c : cylinders) {
+      int x = commands->FindColumn(c.name, "x"), v = commands->FindColumn(c.name, "v");
+      if (x < 0 && v < 0) continue;
+      int joint = DrivenJoint(m, c);
+      if (joint < 0) return "cylinder '" + c.name + "' drives a tendon or slider-crank: its x and v cannot be set from the log";
+      double gear = m->actuator_gear[6 * c.chamber_actuator[0]];
+      double position = x >= 0 ? commands->values[x][row] : 0;
+      double velocity = v >= 0 ? commands->values[v][row] : 0;
+      if (step >= 0 && x >= 0 && v >= 0 && row + 1 < commands->rows()) {
+        double x0 = position, v0 = velocity, x1 = commands->values[x][row + 1], v1 = commands->values[v][row + 1];
+        auto hermite = [&](double s) {
+          double s2 = s * s, s3 = s2 * s;
+          return (2 * s3 - 3 * s2 + 1) * x0 + (s3 - 2 * s2 + s) * period * v0 + (-2 * s3 + 3 * s2) * x1 +
+                 (s3 - s2) * period * v1;
+        };
+        double s0 = static_cast<double>(step) / static_cast<double>(steps);
+        double s1 = static_cast<double>(step + 1) / static_cast<double>(steps);
+        position = hermite(s0);
+        velocity = (hermite(s1) - position) / timestep;
+      }
+      if (x >= 0) data->qpos[m->jnt_qposadr[joint]] = (position + c.x_mid) / gear;
+      if (v >= 0) data->qvel[m->jnt_dofadr[joint]] = velocity / gear;
+    }
+    return "";
+  };
+  // with the motion prescribed, cancel the smooth forces so that MuJoCo's semi-implicit step moves
+  // each piston exactly along the prescribed line (and the chamber step sees that velocity)
+  auto step_along_motion = [&](mjData* data, size_t row, long k) {
+    set_motion(data, row, k);
+    mju_zero(data->qfrc_applied, m->nv);
+    mj_forward(m, data);
+    for (int i = 0; i < m->nv; ++i) {
+      data->qfrc_applied[i] = -(data->qfrc_passive[i] - data->qfrc_bias[i] + data->qfrc_actuator[i]);
+    }
+    mj_step(m, data);
+  };
+  if (options.follow_motion) {
+    if (!commands) return fail("following the measured motion needs a log");
+    for (const CylinderInfo& c : cylinders) {
+      if (commands->FindColumn(c.name, "x") < 0 || commands->FindColumn(c.name, "v") < 0) {
+        return fail("following the measured motion needs columns '" + c.name + ".x' and '" + c.name + ".v'");
+      }
+    }
+  }
+
   // initial state from the first row
   std::unique_ptr<mjData, void (*)(mjData*)> d(mj_makeData(m), mj_deleteData);
   if (!d) return fail("mj_makeData failed");
   d->time = t0;
   if (commands) {
-    auto first = [&](const std::string& cyl, const char* signal, double* value) {
-      int col = commands->FindColumn(cyl, signal);
-      if (col >= 0) *value = commands->values[col][0];
-      return col >= 0;
-    };
     for (const CylinderInfo& c : cylinders) {
-      double value = 0;
-      if (first(c.name, "p_P", &value)) SetChamberPressure(m, d.get(), c, Chamber::kP, value);
-      if (first(c.name, "p_N", &value)) SetChamberPressure(m, d.get(), c, Chamber::kN, value);
-      int joint = DrivenJoint(m, c);
-      double gear = m->actuator_gear[6 * c.chamber_actuator[0]];
-      bool has_x = commands->FindColumn(c.name, "x") >= 0, has_v = commands->FindColumn(c.name, "v") >= 0;
-      if ((has_x || has_v) && joint < 0) {
-        return fail("cylinder '" + c.name + "' drives a tendon or slider-crank: its initial x and v cannot be set from the log");
-      }
-      if (first(c.name, "x", &value)) d->qpos[m->jnt_qposadr[joint]] = (value + c.x_mid) / gear;
-      if (first(c.name, "v", &value)) d->qvel[m->jnt_dofadr[joint]] = value / gear;
+      if (int col = commands->FindColumn(c.name, "p_P"); col >= 0) SetChamberPressure(m, d.get(), c, Chamber::kP, commands->values[col][0]);
+      if (int col = commands->FindColumn(c.name, "p_N"); col >= 0) SetChamberPressure(m, d.get(), c, Chamber::kN, commands->values[col][0]);
     }
+    if (std::string e = set_motion(d.get(), 0, -1); !e.empty()) return fail(e);
   }
 
-  // replay: set the row's commands, sample, then hold them for one period
+  // replay: set the row's commands (and motion), sample, then hold them for one period
   for (size_t row = 0; row < rows; ++row) {
+    if (options.follow_motion) set_motion(d.get(), row, -1);
     for (size_t i = 0; i < slots.size(); ++i) {
       const CommandSlot& s = slots[i];
       double u = s.source >= 0 ? commands->values[s.source][row] : s.constant;
@@ -142,7 +179,13 @@ RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutO
       out.values[col++].push_back(c.p_supply);
     }
     out.time.push_back(commands ? commands->time[row] : t0 + static_cast<double>(row) * period);
-    for (long k = 0; k < steps; ++k) mj_step(m, d.get());
+    for (long k = 0; k < steps; ++k) {
+      if (options.follow_motion) {
+        step_along_motion(d.get(), row, k);
+      } else {
+        mj_step(m, d.get());
+      }
+    }
     // MuJoCo resets the state after a non-finite one: a replay must not carry on from there
     for (int w : {mjWARN_BADQACC, mjWARN_BADQVEL, mjWARN_BADQPOS, mjWARN_BADCTRL}) {
       if (d->warning[w].number > 0) {

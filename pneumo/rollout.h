@@ -22,6 +22,11 @@ struct RolloutOptions {
   std::map<std::string, double> constant_commands;
   // sample period of the output without a command log (s); 0: 1 ms rounded to whole steps
   double period = 0;
+  // move each joint-driven piston along the log's measured x (straight between rows) instead
+  // of simulating the mechanics, so only the pressures are simulated: paper 000's multi-step
+  // pressure prediction (Section V.D), which separates the pressure model from the mechanics
+  // (Section II.5)
+  bool follow_motion = false;
 };
 
 struct RolloutResult {

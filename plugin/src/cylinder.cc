@@ -209,9 +209,37 @@ ValveInputs Cylinder::ReadValves(const mjModel* m, const mjData* d) const {
   return in;
 }
 
+double Cylinder::EndOfStepVelocity(const mjModel* m, const mjData* d) const {
+  // M qacc = qfrc_passive - qfrc_bias + qfrc_applied + J' xfrc_applied + qfrc_actuator: everything but
+  // the constraint forces is computed before act_dot in mj_forward (qfrc_actuator included)
+  int nv = m->nv;
+  thread_local std::vector<mjtNum> force, qacc;
+  force.resize(nv), qacc.resize(nv);
+  for (int i = 0; i < nv; ++i) {
+    force[i] = d->qfrc_passive[i] - d->qfrc_bias[i] + d->qfrc_applied[i] + d->qfrc_actuator[i];
+  }
+  // mj_applyFT and mj_solveM take a non-const mjData but only read it (and use its scratch stack)
+  mjData* scratch = const_cast<mjData*>(d);
+  for (int b = 1; b < m->nbody; ++b) {
+    const mjtNum* wrench = d->xfrc_applied + 6 * b;
+    if (!mju_isZero(const_cast<mjtNum*>(wrench), 6)) {
+      mj_applyFT(m, scratch, wrench, wrench + 3, d->xipos + 3 * b, b, force.data());
+    }
+  }
+  mj_solveM(m, scratch, qacc.data(), force.data(), 1);
+  // semi-implicit Euler: qvel(t + h) = qvel + h qacc; the piston's rate is the actuator moment times it
+  const mjtNum* moment = d->actuator_moment + static_cast<size_t>(info_.chamber_actuator[0]) * nv;
+  double rate = 0;
+  for (int i = 0; i < nv; ++i) rate += moment[i] * (d->qvel[i] + m->opt.timestep * qacc[i]);
+  return rate;
+}
+
 VolumePath Cylinder::Volume(const mjModel* m, const mjData* d, int chamber) const {
   const ChamberConfig& k = config_.chamber[chamber];
-  double x = PistonPosition(m, d, info_), x_rate = PistonVelocity(m, d, info_);
+  // MuJoCo's Euler and implicit integrators move the piston over the step with the velocity at its
+  // end; the exact step follows that path (plain explicit Euler uses the velocity at the start)
+  double x = PistonPosition(m, d, info_);
+  double x_rate = config_.step == ChamberStep::kExact ? EndOfStepVelocity(m, d) : PistonVelocity(m, d, info_);
   // chamber P grows with x, chamber N shrinks (rigs.md volumes)
   double sign = chamber == 0 ? 1.0 : -1.0;
   double swept = std::clamp(config_.stroke / 2 + sign * x, 0.0, config_.stroke);

@@ -54,6 +54,9 @@ class Cylinder {
  private:
   ValveInputs ReadValves(const mjModel* m, const mjData* d) const;
   VolumePath Volume(const mjModel* m, const mjData* d, int chamber) const;
+  // piston velocity at the end of the step, predicted from the smooth dynamics (constraint forces
+  // and the Euler integrator's implicit damping left out)
+  double EndOfStepVelocity(const mjModel* m, const mjData* d) const;
 
   CylinderConfig config_;
   CylinderInfo info_;

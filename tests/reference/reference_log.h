@@ -1,0 +1,54 @@
+// A reference simulation of rigs.md written as a log of log_format.md, so it
+// can be replayed through a model exactly as a real robot's log would be.
+#ifndef PNEUMATIC_TESTS_REFERENCE_LOG_H_
+#define PNEUMATIC_TESTS_REFERENCE_LOG_H_
+
+#include <string>
+#include <vector>
+
+#include "log_csv.h"
+#include "rig_reference.h"
+
+namespace pneumatic::reference {
+
+// the shipped model of each rig
+inline const char* RigModelFile(Rig rig) {
+  switch (rig) {
+    case Rig::kOnOff: return "rig_onoff.xml";
+    case Rig::kProportional: return "rig_proportional.xml";
+    case Rig::kPerChamber: return "rig_per_chamber.xml";
+  }
+  return "";
+}
+
+// samples of Simulate() as a log of cylinder "cyl": the rig's commands, then p_P, p_N, x, v
+inline log::Log ToLog(Rig rig, const std::vector<Sample>& samples) {
+  std::vector<std::string> commands;
+  switch (rig) {
+    case Rig::kOnOff: commands = {"u1", "u2", "u3", "u4"}; break;
+    case Rig::kProportional: commands = {"u"}; break;
+    case Rig::kPerChamber: commands = {"uP", "uN"}; break;
+  }
+  log::Log out;
+  out.comments.push_back(std::string("reference: rigs.md, fine-step RK4; rig: models_mjcf/") + RigModelFile(rig));
+  for (const std::string& c : commands) out.columns.push_back({"cyl", c});
+  for (const char* m : {"p_P", "p_N", "x", "v"}) out.columns.push_back({"cyl", m});
+  out.values.assign(out.columns.size(), {});
+  for (const Sample& s : samples) {
+    out.time.push_back(s.time);
+    const RigCommand& c = s.command;
+    std::vector<double> row;
+    switch (rig) {
+      case Rig::kOnOff: row = {c.u1, c.u2, c.u3, c.u4}; break;
+      case Rig::kProportional: row = {c.u}; break;
+      case Rig::kPerChamber: row = {c.uP, c.uN}; break;
+    }
+    for (double v : {s.state.p_P, s.state.p_N, s.state.x, s.state.v}) row.push_back(v);
+    for (size_t i = 0; i < row.size(); ++i) out.values[i].push_back(row[i]);
+  }
+  return out;
+}
+
+}  // namespace pneumatic::reference
+
+#endif  // PNEUMATIC_TESTS_REFERENCE_LOG_H_
