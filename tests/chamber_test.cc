@@ -252,19 +252,19 @@ TEST_F(SealedCylinder, ChambersFollowPVkAndSettleWhereForcesBalance) {
   double x = 0, p_p = 0, p_n = 0;
   double drift = Run(2.5e-4, &x, &p_p, &p_n);
   EXPECT_NEAR(p_p, p_n, 1.0);
-  // the chamber step holds the start-of-step velocity while MuJoCo moves the piston with the new
-  // one: p V^k drifts by O(h A integral(dv / V)); measured at 0.25 ms: 0.24 % at peak speed,
-  // 0.08 % once at rest, 16 um in x
-  EXPECT_LT(drift, 3e-3);
-  EXPECT_NEAR(x, lo, 5e-5);
+  // the chamber step follows the piston over the step with the velocity MuJoCo will move it
+  // with (predicted from the smooth dynamics); what remains is second order: measured at
+  // 0.25 ms, 3.3e-5 at peak speed; the piston settles 0.3 um from the hand-computed balance
+  EXPECT_LT(drift, 1e-4);
+  EXPECT_NEAR(x, lo, 5e-6);
 }
 
-TEST_F(SealedCylinder, PolytropicDriftIsFirstOrderInTheTimestep) {
-  // halving the step halves the drift of p V^k: the model converges to the exact polytropic law
+TEST_F(SealedCylinder, PolytropicDriftIsSecondOrderInTheTimestep) {
+  // halving the step quarters the drift of p V^k: the model converges to the exact polytropic law
   double x = 0, p_p = 0, p_n = 0;
   double coarse = Run(1e-3, &x, &p_p, &p_n), fine = Run(5e-4, &x, &p_p, &p_n);
-  EXPECT_GT(coarse / fine, 1.6);
-  EXPECT_LT(coarse / fine, 2.4);
+  EXPECT_GT(coarse / fine, 3.5);
+  EXPECT_LT(coarse / fine, 4.5);
 }
 
 }  // namespace
