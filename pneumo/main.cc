@@ -47,13 +47,14 @@ std::string Load(const std::string& path, AttachedModel* out) {
 }
 
 int RunRollout(const std::string& model_path, const std::string& commands_path, const std::string& out_path,
-               double duration, double period, const std::vector<std::string>& sets, bool follow_motion) {
+               bool duration_given, double duration, double period, const std::vector<std::string>& sets,
+               bool follow_motion) {
   AttachedModel model;
   if (std::string e = Load(model_path, &model); !e.empty()) return Fail(e);
   const mjModel* m = model.model;
 
   pneumatic::RolloutOptions options;
-  options.duration = duration;
+  if (duration_given) options.duration = duration;
   options.period = period;
   options.follow_motion = follow_motion;
   for (const std::string& s : sets) {
@@ -126,9 +127,10 @@ int RunParams(bool markdown) {
 int main(int argc, char** argv) {
   CLI::App app{"pneumo: pneumatic actuators for MuJoCo 2.2"};
   app.require_subcommand(1);
+  app.failure_message(CLI::FailureMessage::help);
 
   std::string model_path, commands_path, out_path;
-  double duration = -1, period = 0;
+  double duration = 0, period = 0;
   std::vector<std::string> sets;
   CLI::App* rollout = app.add_subcommand("rollout", "replay a log's commands open loop from its first measured state");
   rollout->add_option("model", model_path, "MJCF model with pneumatic cylinders")->required();
@@ -149,7 +151,10 @@ int main(int argc, char** argv) {
   params->add_flag("--markdown", markdown, "as a Markdown table");
 
   CLI11_PARSE(app, argc, argv);
-  if (*rollout) return RunRollout(model_path, commands_path, out_path, duration, period, sets, follow_motion);
+  if (*rollout) {
+    bool duration_given = rollout->count("--duration") > 0;
+    return RunRollout(model_path, commands_path, out_path, duration_given, duration, period, sets, follow_motion);
+  }
   if (*info) return RunInfo(model_path);
   if (*params) return RunParams(markdown);
   return 2;

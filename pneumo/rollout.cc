@@ -40,19 +40,32 @@ RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutO
   double timestep = m->opt.timestep;
   double period = 0, t0 = 0;
   size_t rows = 0;
+  if (options.duration && !(*options.duration > 0)) return fail("the duration must be positive");
   if (commands) {
     if (commands->rows() < 2) return fail("the command log needs at least two rows to define its period");
+    if (options.period > 0) return fail("a row period is only chosen without a command log (the log's rows set it)");
     period = commands->Period();
     t0 = commands->time[0];
+    // each row holds its commands for one period: rows must be evenly spaced (log_format.md)
+    for (size_t i = 1; i < commands->rows(); ++i) {
+      double spacing = commands->time[i] - commands->time[i - 1];
+      if (std::fabs(spacing - period) > 1e-6 * period + 1e-9) {
+        return fail("rows " + std::to_string(i) + " and " + std::to_string(i + 1) + " are " + std::to_string(spacing) +
+                    " s apart, not the log's period " + std::to_string(period) + " s: rows must be evenly spaced");
+      }
+    }
+    for (const log::Column& column : commands->columns) {
+      if (!log::FindSignal(column.signal)) return fail("log column '" + column.name() + "' is not a signal of log_format.md");
+    }
     rows = commands->rows();
-    if (options.duration >= 0) {
+    if (options.duration) {
       rows = 0;
-      while (rows < commands->rows() && commands->time[rows] - t0 < options.duration - 1e-9 * period) ++rows;
+      while (rows < commands->rows() && commands->time[rows] - t0 < *options.duration - 1e-9 * period) ++rows;
     }
   } else {
-    if (!(options.duration > 0)) return fail("without a command log, --duration must be positive");
+    if (!options.duration) return fail("without a command log, give the duration to simulate");
     period = options.period > 0 ? options.period : std::max(1.0, std::round(1e-3 / timestep)) * timestep;
-    rows = static_cast<size_t>(std::ceil(options.duration / period - 1e-9));
+    rows = static_cast<size_t>(std::ceil(*options.duration / period - 1e-9));
   }
   double steps_per_row = period / timestep;
   long steps = std::lround(steps_per_row);
@@ -69,6 +82,9 @@ RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutO
       CommandSlot slot{{c.name, signal}, actuator, -1, 0};
       std::string name = slot.column.name();
       if (auto it = unused.find(name); it != unused.end()) {
+        if (log::IsValveState(signal) && it->second != 0 && it->second != 1) {
+          return fail("constant command '" + name + "' is an on/off valve state: 0 or 1, not " + std::to_string(it->second));
+        }
         slot.constant = it->second;
         unused.erase(it);
       } else if (commands) {

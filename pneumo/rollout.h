@@ -14,9 +14,9 @@
 namespace pneumatic {
 
 struct RolloutOptions {
-  // simulate only rows with time - time[0] < duration (s); < 0: the whole log.
-  // Without a command log: the length of the run (required).
-  double duration = -1;
+  // simulate only rows with time - time[0] < duration (s); unset: the whole log.
+  // Without a command log: the length of the run (required). Must be positive.
+  std::optional<double> duration;
   // constant commands "<cylinder>.<signal>" -> value, overriding (or, without a
   // log, setting) that command column for every row; unset commands are 0
   std::map<std::string, double> constant_commands;

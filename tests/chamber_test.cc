@@ -41,7 +41,8 @@ double SteadyStatePressure(const ChamberModel& k, const PortOpenings& o) {
   return (lo + hi) / 2;
 }
 
-VolumePath Locked(double volume) { return VolumePath{volume, 0, volume, volume}; }
+// a chamber of fixed volume: no piston area
+VolumePath Locked(double volume) { return VolumePath{volume, 0, 0, 0, 0}; }
 
 // fine-step reference: classical RK4 of dp/dt at fixed openings and volume path
 double FineReference(const ChamberModel& k, const PortOpenings& o, VolumePath v, double p, double duration) {
@@ -50,8 +51,7 @@ double FineReference(const ChamberModel& k, const PortOpenings& o, VolumePath v,
   for (int i = 0; i < steps; ++i) {
     double t = i * dt;
     auto f = [&](double tau, double q) {
-      double vol = v.At(tau), rate = (vol > v.min_volume && vol < v.max_volume) ? v.volume_rate : 0;
-      return PressureRate(k, o, q, vol, rate);
+      return PressureRate(k, o, q, v.At(tau), v.RateAt(tau));
     };
     double k1 = f(t, p), k2 = f(t + dt / 2, p + dt / 2 * k1), k3 = f(t + dt / 2, p + dt / 2 * k2),
            k4 = f(t + dt, p + dt * k3);
@@ -100,8 +100,7 @@ TEST(ChamberStep, MovingPistonMatchesFineStepReference) {
   // rig B chamber P filling while the piston retracts at 0.5 m/s (volume shrinking): one 5 ms step
   CylinderConfig c = ShippedConfig("rig_proportional.xml");
   ChamberModel k = MakeChamberModel(c, 0);
-  VolumePath v{c.chamber[0].dead_volume + c.chamber[0].area * 0.2, -c.chamber[0].area * 0.5,
-               c.chamber[0].dead_volume, c.chamber[0].dead_volume + c.chamber[0].area * c.stroke};
+  VolumePath v{c.chamber[0].dead_volume, c.chamber[0].area, c.stroke, 0.2, -0.5};
   PortOpenings fill{c.orifice_gradient * 0.5e-3, 0};
   double reference = FineReference(k, fill, v, 2e5, 5e-3);
   ValveInputs in;
@@ -116,7 +115,7 @@ TEST(ChamberStep, SealedChamberFollowsPolytropicLaw) {
   ChamberModel k = MakeChamberModel(c, 0);
   ValveInputs in;
   in.step = 0.01;  // u = 0, spool at 0: both ports closed
-  VolumePath v{2e-4, -1.5e-2, 1e-5, 5.4e-4};
+  VolumePath v{1e-5, 1e-3, 0.5, 0.19, -15};  // 2e-4 m^3, shrinking at 1.5e-2 m^3/s
   double p = PhysicalPressureStep(k, PortSchedule(c, 0, in), v, 2e5, 0.01);
   double exponent = 0.89 * 1.4;
   EXPECT_NEAR(p * std::pow(v.At(0.01), exponent), 2e5 * std::pow(2e-4, exponent), 1e-9 * 2e5 * std::pow(2e-4, exponent));

@@ -31,7 +31,12 @@ ChamberModel MakeChamberModel(const CylinderConfig& c, int chamber) {
 }
 
 double VolumePath::At(double tau) const {
-  return std::clamp(volume + volume_rate * tau, min_volume, max_volume);
+  return dead_volume + area * std::clamp(swept + swept_rate * tau, 0.0, stroke);
+}
+
+double VolumePath::RateAt(double tau) const {
+  double s = swept + swept_rate * tau;
+  return (s > 0 && s < stroke) ? area * swept_rate : 0.0;
 }
 
 double ChamberMassFlow(const ChamberModel& k, const PortOpenings& o, double p) {

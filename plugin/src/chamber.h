@@ -22,13 +22,19 @@ struct ChamberModel {
 
 ChamberModel MakeChamberModel(const CylinderConfig& c, int chamber);
 
-// the chamber volume over the step: V(tau) = clamp(volume + volume_rate tau, min, max)
+// the chamber volume over the step, from the piston's path: the swept length
+// s(tau) = swept + swept_rate tau runs past the ends of the stroke when the
+// piston does (joint limits are soft), and only its clamp to [0, stroke] counts:
+// V(tau) = dead_volume + area clamp(s(tau), 0, stroke)
 struct VolumePath {
-  double volume = 0;       // m^3 at the start of the step
-  double volume_rate = 0;  // m^3/s, held over the step
-  double min_volume = 0;   // m^3: the dead volume
-  double max_volume = 0;   // m^3: dead volume plus area times stroke
+  double dead_volume = 0;  // m^3
+  double area = 0;         // m^2 (m^3/rad)
+  double stroke = 0;       // m (rad)
+  double swept = 0;        // m (rad): l/2 + x for chamber P, l/2 - x for N, at the start of the step
+  double swept_rate = 0;   // m/s (rad/s), held over the step
   double At(double tau) const;
+  // dV/dt at tau: zero while the piston is beyond an end of the stroke
+  double RateAt(double tau) const;
 };
 
 // net mass flow into the chamber (kg/s) at pressure p (Pa abs), paper 000 eq. (2)

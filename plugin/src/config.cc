@@ -441,6 +441,11 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
   if (c.p_supply <= c.p_exhaust) {
     return fail("p_supply", "must exceed p_exhaust (" + FormatBound(c.p_exhaust) + " Pa)");
   }
+  bool delays = c.delay_open > 0 || c.delay_close > 0;
+  if (c.input == CommandInput::kPwm && delays && c.pwm_frequency == 0) {
+    return fail(c.delay_open > 0 ? "delay_open" : "delay_close",
+                "valve delays need switched PWM (pwm_frequency > 0), the averaged model has no switching instants");
+  }
   for (int k = 0; k < 2; ++k) {
     const ChamberConfig& ch = c.chamber[k];
     std::string side = k == 0 ? "P." : "N.";

@@ -30,14 +30,21 @@ bool SameTransmission(const mjModel* m, int a, int b) {
   return true;
 }
 
-// the command a valve actuator holds: ctrl clamped to ctrlrange as MuJoCo clamps it
-double Command(const mjModel* m, const mjData* d, int id) {
+// a control as mj_fwdActuation uses it: clamped to ctrlrange unless clamping is disabled
+double ClampedControl(const mjModel* m, const mjData* d, int id) {
   double u = d->ctrl[id];
-  if (!std::isfinite(u)) return 0;  // MuJoCo zeroes bad controls too (mjWARN_BADCTRL)
   if (m->actuator_ctrllimited[id] && !(m->opt.disableflags & mjDSBL_CLAMPCTRL)) {
-    u = std::clamp(u, m->actuator_ctrlrange[2 * id], m->actuator_ctrlrange[2 * id + 1]);
+    u = mju_clip(u, m->actuator_ctrlrange[2 * id], m->actuator_ctrlrange[2 * id + 1]);
   }
   return u;
+}
+
+// MuJoCo zeroes every control (mjWARN_BADCTRL) if any clamped control is NaN or beyond 1e10
+bool AnyBadControl(const mjModel* m, const mjData* d) {
+  for (int id = 0; id < m->nu; ++id) {
+    if (mju_isBad(ClampedControl(m, d, id))) return true;
+  }
+  return false;
 }
 
 double Act(const mjModel* m, const mjData* d, int id) { return d->act[id - (m->nu - m->na)]; }
@@ -69,12 +76,6 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
   if (ValvesHaveState(cfg)) {
     states = cfg.valve == ValveKind::kProportional53 ? std::vector<std::string>{"u"}
                                                      : std::vector<std::string>{"u1", "u2", "u3", "u4"};
-  }
-  if (cfg.valve == ValveKind::kOnOff && cfg.input == CommandInput::kPwm && ValvesHaveState(cfg) &&
-      cfg.pwm_frequency == 0) {
-    *error = "cylinder '" + name + "': key '" + (cfg.delay_open > 0 ? "delay_open" : "delay_close") +
-             "': valve delays need switched PWM (pwm_frequency > 0), the averaged model has no switching instants";
-    return std::nullopt;
   }
 
   // chambers: user dynamics and gain, no bias, one shared transmission
@@ -202,8 +203,9 @@ ValveInputs Cylinder::ReadValves(const mjModel* m, const mjData* d) const {
   ValveInputs in;
   in.time = d->time;
   in.step = m->opt.timestep;
+  bool zero_commands = AnyBadControl(m, d);
   for (int i = 0; i < 4; ++i) {
-    if (command_id_[i] >= 0) in.command[i] = Command(m, d, command_id_[i]);
+    if (command_id_[i] >= 0 && !zero_commands) in.command[i] = ClampedControl(m, d, command_id_[i]);
     if (state_id_[i] >= 0) in.state[i] = Act(m, d, state_id_[i]);
   }
   return in;
@@ -242,12 +244,12 @@ VolumePath Cylinder::Volume(const mjModel* m, const mjData* d, int chamber) cons
   double x_rate = config_.step == ChamberStep::kExact ? EndOfStepVelocity(m, d) : PistonVelocity(m, d, info_);
   // chamber P grows with x, chamber N shrinks (rigs.md volumes)
   double sign = chamber == 0 ? 1.0 : -1.0;
-  double swept = std::clamp(config_.stroke / 2 + sign * x, 0.0, config_.stroke);
   VolumePath v;
-  v.volume = k.dead_volume + k.area * swept;
-  v.volume_rate = sign * k.area * x_rate;
-  v.min_volume = k.dead_volume;
-  v.max_volume = k.dead_volume + k.area * config_.stroke;
+  v.dead_volume = k.dead_volume;
+  v.area = k.area;
+  v.stroke = config_.stroke;
+  v.swept = config_.stroke / 2 + sign * x;
+  v.swept_rate = sign * x_rate;
   return v;
 }
 
@@ -266,7 +268,7 @@ double Cylinder::ChamberActDot(const mjModel* m, const mjData* d, int chamber) c
   PortSchedule ports(config_, chamber, valves);
   VolumePath volume = Volume(m, d, chamber);
   if (config_.step == ChamberStep::kExplicit) {
-    return PressureRate(chamber_model_[chamber], ports.At(0), p0, volume.volume, volume.volume_rate);
+    return PressureRate(chamber_model_[chamber], ports.At(0), p0, volume.At(0), volume.RateAt(0));
   }
   return (PhysicalPressureStep(chamber_model_[chamber], ports, volume, p0, h) - p0) / h;
 }

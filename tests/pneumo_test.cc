@@ -1,0 +1,799 @@
+// Tests of the open-loop rollout (pneumo/rollout.h) and of the command-line tool
+// `pneumo` (pneumo/main.cc): the rollout library in-process, the binary through the
+// shell, reading and writing logs of shared/spec/log_format.md.
+
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include "log_csv.h"
+#include "rollout.h"
+#include "test_util.h"
+
+namespace pneumatic {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+using ::testing::StartsWith;
+using testing::AttachedModel;
+using testing::MujocoTest;
+using testing::ShippedModel;
+
+constexpr double kPi = 3.14159265358979323846;
+
+// ---------------------------------------------------------------------------------------
+// helpers
+
+// a log with `rows` rows at `period` from t = 0; `value(column, row, t)` fills each column
+log::Log MakeLog(const std::vector<std::string>& names, size_t rows, double period,
+                 const std::function<double(const std::string&, size_t, double)>& value) {
+  log::Log out;
+  for (const std::string& name : names) {
+    size_t dot = name.rfind('.');
+    out.columns.push_back({name.substr(0, dot), name.substr(dot + 1)});
+  }
+  out.values.assign(names.size(), {});
+  for (size_t r = 0; r < rows; ++r) {
+    double t = static_cast<double>(r) * period;
+    out.time.push_back(t);
+    for (size_t j = 0; j < names.size(); ++j) out.values[j].push_back(value(names[j], r, t));
+  }
+  return out;
+}
+
+// a command log for rig_proportional: u = amplitude sin(2 pi f t), 1 ms rows
+log::Log SineCommands(size_t rows, double amplitude, double frequency) {
+  return MakeLog({"cyl.u"}, rows, 1e-3, [&](const std::string&, size_t, double t) {
+    return amplitude * std::sin(2 * kPi * frequency * t);
+  });
+}
+
+const std::vector<double>& Column(const log::Log& l, const std::string& signal) {
+  int j = l.FindColumn("cyl", signal);
+  EXPECT_GE(j, 0) << "no column cyl." << signal;
+  static const std::vector<double> empty;
+  return j >= 0 ? l.values[j] : empty;
+}
+
+std::vector<std::string> ColumnNames(const log::Log& l) {
+  std::vector<std::string> names;
+  for (const log::Column& c : l.columns) names.push_back(c.name());
+  return names;
+}
+
+class RolloutTest : public MujocoTest {
+ protected:
+  void Load(const std::string& file) { ASSERT_TRUE(model_.Load(ShippedModel(file), true)) << model_.error(); }
+  const mjModel* m() const { return model_.m(); }
+  AttachedModel model_;
+};
+
+// ---------------------------------------------------------------------------------------
+// A. the rollout library
+
+TEST_F(RolloutTest, ConstantCommandRunHasEveryMeasuredColumn) {
+  Load("rig_proportional.xml");
+  RolloutOptions options;
+  options.duration = 0.5;
+  options.constant_commands["cyl.u"] = 2;
+  RolloutResult result = Rollout(m(), nullptr, options);
+  ASSERT_TRUE(result.log) << result.error;
+  const log::Log& out = *result.log;
+
+  EXPECT_EQ(ColumnNames(out), (std::vector<std::string>{"cyl.u", "cyl.p_P", "cyl.p_N", "cyl.x", "cyl.v", "cyl.p_S"}));
+  // 1 ms default period: 4 steps of 0.25 ms per row, 500 rows in 0.5 s
+  ASSERT_EQ(out.rows(), 500u);
+  EXPECT_EQ(out.time.front(), 0);
+  EXPECT_NEAR(out.time[1] - out.time[0], 1e-3, 1e-15);
+  EXPECT_NEAR(out.time.back(), 0.499, 1e-12);
+  EXPECT_NEAR(out.Period(), 1e-3, 1e-15);
+
+  // first row: the reset state, before the command acts
+  EXPECT_EQ(Column(out, "p_P")[0], 1e5);
+  EXPECT_EQ(Column(out, "p_N")[0], 1e5);
+  EXPECT_EQ(Column(out, "x")[0], 0);
+  EXPECT_EQ(Column(out, "v")[0], 0);
+
+  for (size_t r = 0; r < out.rows(); ++r) {
+    ASSERT_EQ(Column(out, "u")[r], 2) << "row " << r;
+    ASSERT_EQ(Column(out, "p_S")[r], 5e5) << "row " << r;
+    for (const auto& values : out.values) ASSERT_TRUE(std::isfinite(values[r])) << "row " << r;
+  }
+  // u > 0 feeds chamber P: its pressure rises, the piston moves towards positive x
+  EXPECT_GT(Column(out, "p_P")[10], Column(out, "p_P")[0] + 1e4);
+  EXPECT_GT(*std::max_element(Column(out, "p_P").begin(), Column(out, "p_P").end()), 3e5);
+  EXPECT_GT(Column(out, "x")[50], 0);
+  EXPECT_GT(Column(out, "x").back(), Column(out, "x")[50]);
+  // it reaches the end of the 0.5 m stroke; MuJoCo's soft joint limit lets it overshoot a little
+  // (12 mm at this force with the model's default solreflimit)
+  EXPECT_GT(Column(out, "x").back(), 0.24);
+  for (size_t r = 0; r < out.rows(); ++r) ASSERT_LE(Column(out, "x")[r], 0.25 + 0.02) << "row " << r;
+}
+
+TEST_F(RolloutTest, ReplayOfItsOwnOutputIsIdentical) {
+  Load("rig_proportional.xml");
+  // a command log that starts away from the reset state
+  log::Log commands = MakeLog({"cyl.u", "cyl.p_P", "cyl.p_N", "cyl.x", "cyl.v"}, 300, 1e-3,
+                              [](const std::string& name, size_t, double t) {
+                                if (name == "cyl.u") return 3 * std::sin(2 * kPi * 4 * t);
+                                if (name == "cyl.p_P") return 3e5;
+                                if (name == "cyl.p_N") return 2e5;
+                                if (name == "cyl.x") return -0.02;
+                                return 0.1;
+                              });
+  RolloutResult first = Rollout(m(), &commands, {});
+  ASSERT_TRUE(first.log) << first.error;
+  RolloutResult second = Rollout(m(), &*first.log, {});
+  ASSERT_TRUE(second.log) << second.error;
+
+  const log::Log& a = *first.log;
+  const log::Log& b = *second.log;
+  ASSERT_EQ(ColumnNames(a), ColumnNames(b));
+  ASSERT_EQ(a.rows(), b.rows());
+  EXPECT_EQ(a.time, b.time);
+  for (size_t j = 0; j < a.columns.size(); ++j) {
+    for (size_t r = 0; r < a.rows(); ++r) {
+      ASSERT_EQ(a.values[j][r], b.values[j][r]) << a.columns[j].name() << " row " << r;  // bit-identical
+    }
+  }
+  // and the motion is not trivial: the state really came from the first row
+  EXPECT_EQ(Column(a, "p_P")[0], 3e5);
+  EXPECT_EQ(Column(a, "x")[0], -0.02);
+  EXPECT_EQ(Column(a, "v")[0], 0.1);
+  EXPECT_NE(Column(a, "x").back(), Column(a, "x")[0]);
+}
+
+TEST_F(RolloutTest, RepeatedRolloutsAreDeterministic) {
+  Load("rig_onoff.xml");
+  log::Log commands = MakeLog({"cyl.u1", "cyl.u2", "cyl.u3", "cyl.u4"}, 200, 2e-3,
+                              [](const std::string& name, size_t r, double) {
+                                bool forward = (r / 25) % 2 == 0;
+                                if (name == "cyl.u1" || name == "cyl.u4") return forward ? 1.0 : 0.0;
+                                return forward ? 0.0 : 1.0;
+                              });
+  RolloutResult a = Rollout(m(), &commands, {});
+  RolloutResult b = Rollout(m(), &commands, {});
+  ASSERT_TRUE(a.log) << a.error;
+  ASSERT_TRUE(b.log) << b.error;
+  EXPECT_EQ(a.log->values, b.log->values);
+  EXPECT_EQ(a.log->time, commands.time);
+}
+
+TEST_F(RolloutTest, StartsFromTheLogsFirstState) {
+  Load("rig_proportional.xml");
+  log::Log commands = MakeLog({"cyl.u", "cyl.p_P", "cyl.p_N", "cyl.x", "cyl.v"}, 10, 1e-3,
+                              [](const std::string& name, size_t r, double) {
+                                if (name == "cyl.u") return 1.0;
+                                if (r > 0) return 0.0;  // later rows' states are not used open loop
+                                if (name == "cyl.p_P") return 2.5e5;
+                                if (name == "cyl.p_N") return 1.5e5;
+                                if (name == "cyl.x") return 0.01;
+                                return 0.0;
+                              });
+  RolloutResult result = Rollout(m(), &commands, {});
+  ASSERT_TRUE(result.log) << result.error;
+  const log::Log& out = *result.log;
+  EXPECT_EQ(Column(out, "p_P")[0], 2.5e5);
+  EXPECT_EQ(Column(out, "p_N")[0], 1.5e5);
+  EXPECT_EQ(Column(out, "x")[0], 0.01);
+  EXPECT_EQ(Column(out, "v")[0], 0);
+  EXPECT_EQ(Column(out, "p_S")[0], 5e5);
+  // open loop: the next rows are simulated from there, not read from the log
+  EXPECT_NEAR(Column(out, "x")[1], 0.01, 1e-3);
+  EXPECT_GT(Column(out, "p_P")[1], 2e5);
+}
+
+TEST_F(RolloutTest, RefusesPeriodThatIsNotWholeSteps) {
+  Load("rig_proportional.xml");
+  log::Log commands = MakeLog({"cyl.u"}, 10, 0.3e-3, [](const std::string&, size_t, double) { return 1.0; });
+  RolloutResult result = Rollout(m(), &commands, {});
+  EXPECT_FALSE(result.log);
+  EXPECT_THAT(result.error, HasSubstr("whole number of model timesteps"));
+
+  RolloutOptions options;  // the same without a log
+  options.duration = 0.01;
+  options.period = 0.3e-3;
+  result = Rollout(m(), nullptr, options);
+  EXPECT_FALSE(result.log);
+  EXPECT_THAT(result.error, HasSubstr("whole number of model timesteps"));
+}
+
+TEST_F(RolloutTest, RefusesMissingCommandColumn) {
+  Load("rig_proportional.xml");
+  log::Log commands = MakeLog({"cyl.p_P"}, 10, 1e-3, [](const std::string&, size_t, double) { return 1e5; });
+  RolloutResult result = Rollout(m(), &commands, {});
+  EXPECT_FALSE(result.log);
+  EXPECT_THAT(result.error, HasSubstr("'cyl.u'"));
+}
+
+TEST_F(RolloutTest, RefusesCommandOfAnotherValveKind) {
+  Load("rig_onoff.xml");
+  // a proportional command next to the on/off ones
+  log::Log commands = MakeLog({"cyl.u1", "cyl.u2", "cyl.u3", "cyl.u4", "cyl.u"}, 10, 1e-3,
+                              [](const std::string&, size_t, double) { return 0.0; });
+  RolloutResult result = Rollout(m(), &commands, {});
+  EXPECT_FALSE(result.log);
+  EXPECT_THAT(result.error, HasSubstr("'cyl.u'"));
+  EXPECT_THAT(result.error, HasSubstr("not a command"));
+
+  // a log for the proportional rig alone
+  commands = MakeLog({"cyl.u"}, 10, 1e-3, [](const std::string&, size_t, double) { return 0.0; });
+  result = Rollout(m(), &commands, {});
+  EXPECT_FALSE(result.log);
+  EXPECT_THAT(result.error, HasSubstr("'cyl.u1'"));
+}
+
+TEST_F(RolloutTest, RefusesUnknownConstantCommand) {
+  Load("rig_proportional.xml");
+  RolloutOptions options;
+  options.duration = 0.01;
+  options.constant_commands["cyl.u9"] = 1;
+  RolloutResult result = Rollout(m(), nullptr, options);
+  EXPECT_FALSE(result.log);
+  EXPECT_THAT(result.error, HasSubstr("cyl.u9"));
+
+  // also with a log, and for a command of another valve kind
+  log::Log commands = SineCommands(10, 1, 1);
+  result = Rollout(m(), &commands, options);
+  EXPECT_FALSE(result.log);
+  EXPECT_THAT(result.error, HasSubstr("cyl.u9"));
+  options.constant_commands = {{"cyl.u1", 1}};
+  result = Rollout(m(), &commands, options);
+  EXPECT_FALSE(result.log);
+  EXPECT_THAT(result.error, HasSubstr("cyl.u1"));
+}
+
+TEST_F(RolloutTest, RefusesValveStateOtherThanZeroOrOneAsConstantCommand) {
+  // log_format.md: u1..u4 are 0 or 1. A constant 0.7 yields a log that WriteLog refuses, so
+  // `pneumo rollout --set cyl.u1=0.7` simulates and then fails on writing the output file
+  Load("rig_onoff.xml");
+  RolloutOptions options;
+  options.duration = 0.01;
+  options.constant_commands["cyl.u1"] = 0.7;
+  RolloutResult result = Rollout(m(), nullptr, options);
+  EXPECT_FALSE(result.log) << "a rollout whose cyl.u1 column holds 0.7";
+  EXPECT_THAT(result.error, HasSubstr("cyl.u1"));
+}
+
+TEST_F(RolloutTest, RefusesDurationWithoutLog) {
+  Load("rig_proportional.xml");
+  for (double duration : {0.0, -1.0, -0.5}) {
+    RolloutOptions options;
+    options.duration = duration;
+    options.constant_commands["cyl.u"] = 1;
+    RolloutResult result = Rollout(m(), nullptr, options);
+    EXPECT_FALSE(result.log) << "duration " << duration;
+    EXPECT_THAT(result.error, HasSubstr("duration"));
+  }
+}
+
+TEST_F(RolloutTest, RefusesLogWithFewerThanTwoRows) {
+  Load("rig_proportional.xml");
+  log::Log commands = SineCommands(1, 1, 1);
+  RolloutResult result = Rollout(m(), &commands, {});
+  EXPECT_FALSE(result.log);
+  EXPECT_THAT(result.error, HasSubstr("two rows"));
+}
+
+TEST_F(RolloutTest, DurationShortensTheLog) {
+  Load("rig_proportional.xml");
+  log::Log commands = SineCommands(100, 1, 5);
+  RolloutOptions options;
+  options.duration = 0.05;
+  RolloutResult result = Rollout(m(), &commands, options);
+  ASSERT_TRUE(result.log) << result.error;
+  EXPECT_EQ(result.log->rows(), 50u);
+  options.duration = 10;  // longer than the log: the whole log
+  result = Rollout(m(), &commands, options);
+  ASSERT_TRUE(result.log) << result.error;
+  EXPECT_EQ(result.log->rows(), 100u);
+}
+
+TEST_F(RolloutTest, RefusesUnevenlySpacedLog) {
+  // rollout.h: each row's commands are held for one row period. A hand-built log whose rows are
+  // 1 ms then 2 ms apart has a 1.5 ms mean period (6 whole steps); holding every row for 1.5 ms
+  // puts the simulation out of step with the log's own times
+  Load("rig_proportional.xml");
+  log::Log commands = SineCommands(3, 1, 1);
+  commands.time = {0, 1e-3, 3e-3};
+  RolloutResult result = Rollout(m(), &commands, {});
+  EXPECT_FALSE(result.log) << "rows 1 ms and 2 ms apart were replayed with a "
+                           << commands.Period() << " s period";
+}
+
+TEST_F(RolloutTest, RefusesInMemoryLogWithUnknownSignal) {
+  // Rollout() looks up every column's signal with log::FindSignal() and dereferences the result
+  // unchecked: a hand-built log (the reader never produces one) with an unknown signal crashes it.
+  // Run in a child process so that a crash fails this test only
+  Load("rig_proportional.xml");
+  log::Log commands = SineCommands(5, 1, 1);
+  commands.columns.push_back({"cyl", "pressure"});
+  commands.values.push_back(std::vector<double>(5, 0.0));
+  EXPECT_EXIT(
+      {
+        RolloutResult result = Rollout(m(), &commands, {});
+        std::fprintf(stderr, "error: %s\n", result.error.c_str());
+        std::exit(!result.log && result.error.find("pressure") != std::string::npos ? 0 : 1);
+      },
+      ::testing::ExitedWithCode(0), "error: .*pressure");
+}
+
+TEST_F(RolloutTest, SealedChambersKeepTheirPressureBeyondTheEndOfStroke) {
+  // MuJoCo's soft joint limit lets the piston run past the end of the stroke (12 mm in
+  // ConstantCommandRunHasEveryMeasuredColumn). There the plugin clamps both chamber volumes
+  // (P at its largest, N at its dead volume), so while the limit pushes the piston back and x
+  // stays beyond 0.25 m, the volumes do not change: with the 5/3 valve centred (u = 0, no
+  // flow) both pressures must stay at 1e5 Pa. The chamber step must not compress or expand them
+  Load("rig_proportional.xml");
+  auto sealed_from = [&](double x0) {
+    log::Log commands = MakeLog({"cyl.u", "cyl.p_P", "cyl.p_N", "cyl.x", "cyl.v"}, 40, 1e-3,
+                                [x0](const std::string& name, size_t, double) {
+                                  if (name == "cyl.x") return x0;
+                                  if (name == "cyl.u" || name == "cyl.v") return 0.0;
+                                  return 1e5;
+                                });
+    RolloutResult result = Rollout(m(), &commands, {});
+    EXPECT_TRUE(result.log) << result.error;
+    return result.log ? *result.log : log::Log{};
+  };
+  // control: inside the stroke, at rest, nothing moves and the pressures stay
+  log::Log inside = sealed_from(0.2);
+  ASSERT_EQ(inside.rows(), 40u);
+  for (size_t r = 0; r < inside.rows(); ++r) {
+    ASSERT_NEAR(Column(inside, "p_P")[r], 1e5, 10) << "row " << r;
+    ASSERT_NEAR(Column(inside, "p_N")[r], 1e5, 10) << "row " << r;
+  }
+
+  // beyond the end of the stroke, pushed back by the limit
+  log::Log out = sealed_from(0.262);
+  ASSERT_EQ(out.rows(), 40u);
+  size_t beyond = 0;
+  double worst_p = 0, worst_n = 0;
+  for (size_t r = 0; r < out.rows() && Column(out, "x")[r] > 0.25 + 1e-4; ++r, ++beyond) {
+    worst_p = std::max(worst_p, std::fabs(Column(out, "p_P")[r] - 1e5));
+    worst_n = std::max(worst_n, std::fabs(Column(out, "p_N")[r] - 1e5));
+  }
+  EXPECT_GT(beyond, 10u);
+  EXPECT_LT(Column(out, "v")[10], -0.05);  // the limit does push it back
+  EXPECT_LT(worst_p, 10) << "p_P changed by up to " << worst_p << " Pa over " << beyond
+                         << " rows while x stayed beyond the stroke; last such row: x = "
+                         << Column(out, "x")[beyond - 1] << ", p_P = " << Column(out, "p_P")[beyond - 1];
+  EXPECT_LT(worst_n, 10) << "p_N changed by up to " << worst_n << " Pa over " << beyond
+                         << " rows while x stayed beyond the stroke; last such row: x = "
+                         << Column(out, "x")[beyond - 1] << ", p_N = " << Column(out, "p_N")[beyond - 1];
+}
+
+// a log made by an open-loop rollout of rig_proportional from rest, with a sine command
+log::Log OpenLoopLog(const mjModel* m, size_t rows, double amplitude, double frequency) {
+  log::Log commands = SineCommands(rows, amplitude, frequency);
+  RolloutResult result = Rollout(m, &commands, {});
+  EXPECT_TRUE(result.log) << result.error;
+  return result.log ? *result.log : log::Log{};
+}
+
+TEST_F(RolloutTest, FollowMotionReproducesTheLogsPositions) {
+  Load("rig_proportional.xml");
+  const log::Log open_loop = OpenLoopLog(m(), 500, 1.5, 3);
+  ASSERT_EQ(open_loop.rows(), 500u);
+  // the motion is well inside the stroke and not trivial
+  const auto& x_log = Column(open_loop, "x");
+  double travel = *std::max_element(x_log.begin(), x_log.end()) - *std::min_element(x_log.begin(), x_log.end());
+  EXPECT_GT(travel, 0.02);
+
+  RolloutOptions options;
+  options.follow_motion = true;
+  RolloutResult result = Rollout(m(), &open_loop, options);
+  ASSERT_TRUE(result.log) << result.error;
+  const log::Log& out = *result.log;
+  ASSERT_EQ(out.rows(), open_loop.rows());
+  const double tolerance = 0.005 * (5e5 - 1e5);
+  for (size_t r = 0; r < out.rows(); ++r) {
+    ASSERT_NEAR(Column(out, "x")[r], x_log[r], 1e-12) << "row " << r;
+    ASSERT_NEAR(Column(out, "p_P")[r], Column(open_loop, "p_P")[r], tolerance) << "row " << r;
+    ASSERT_NEAR(Column(out, "p_N")[r], Column(open_loop, "p_N")[r], tolerance) << "row " << r;
+  }
+}
+
+TEST_F(RolloutTest, FollowMotionReproducesTheLogsPositionsOnTheOnOffRig) {
+  Load("rig_onoff.xml");
+  log::Log commands = MakeLog({"cyl.u1", "cyl.u2", "cyl.u3", "cyl.u4"}, 250, 2e-3,
+                              [](const std::string& name, size_t r, double) {
+                                bool forward = (r / 20) % 2 == 0;
+                                if (name == "cyl.u1" || name == "cyl.u4") return forward ? 1.0 : 0.0;
+                                return forward ? 0.0 : 1.0;
+                              });
+  RolloutResult open_loop = Rollout(m(), &commands, {});
+  ASSERT_TRUE(open_loop.log) << open_loop.error;
+  RolloutOptions options;
+  options.follow_motion = true;
+  RolloutResult result = Rollout(m(), &*open_loop.log, options);
+  ASSERT_TRUE(result.log) << result.error;
+  const double tolerance = 0.005 * (3e5 - 1e5);
+  for (size_t r = 0; r < result.log->rows(); ++r) {
+    ASSERT_NEAR(Column(*result.log, "x")[r], Column(*open_loop.log, "x")[r], 1e-12) << "row " << r;
+    ASSERT_NEAR(Column(*result.log, "p_P")[r], Column(*open_loop.log, "p_P")[r], tolerance) << "row " << r;
+    ASSERT_NEAR(Column(*result.log, "p_N")[r], Column(*open_loop.log, "p_N")[r], tolerance) << "row " << r;
+  }
+}
+
+TEST_F(RolloutTest, FollowMotionNeedsXAndV) {
+  Load("rig_proportional.xml");
+  log::Log open_loop = OpenLoopLog(m(), 20, 1, 5);
+  RolloutOptions options;
+  options.follow_motion = true;
+
+  log::Log without_v = open_loop;
+  int v = without_v.FindColumn("cyl", "v");
+  ASSERT_GE(v, 0);
+  without_v.columns.erase(without_v.columns.begin() + v);
+  without_v.values.erase(without_v.values.begin() + v);
+  RolloutResult result = Rollout(m(), &without_v, options);
+  EXPECT_FALSE(result.log);
+  EXPECT_THAT(result.error, HasSubstr("'cyl.v'"));
+
+  log::Log commands_only = SineCommands(20, 1, 5);
+  result = Rollout(m(), &commands_only, options);
+  EXPECT_FALSE(result.log);
+  EXPECT_THAT(result.error, HasSubstr("'cyl.x'"));
+
+  options.duration = 0.01;  // and not without a log
+  result = Rollout(m(), nullptr, options);
+  EXPECT_FALSE(result.log);
+  EXPECT_THAT(result.error, HasSubstr("log"));
+}
+
+TEST(RolloutLibraryTest, RefusesModelThatIsNotAttached) {
+  char error[1000] = "";
+  mjModel* m = mj_loadXML(ShippedModel("rig_proportional.xml").c_str(), nullptr, error, sizeof(error));
+  ASSERT_TRUE(m) << error;
+  RolloutOptions options;
+  options.duration = 0.01;
+  RolloutResult result = Rollout(m, nullptr, options);
+  EXPECT_FALSE(result.log);
+  EXPECT_THAT(result.error, HasSubstr("not attached"));
+  mj_deleteModel(m);
+}
+
+// ---------------------------------------------------------------------------------------
+// B. the binary
+
+std::string Quote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return out + "'";
+}
+
+std::string ReadText(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+void WriteText(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out << text;
+  ASSERT_TRUE(out.good()) << path;
+}
+
+struct Outcome {
+  int exit_code = -1;
+  std::string out, err;
+};
+
+// a fresh directory per test and a way to run the binary in it
+class PneumoBinaryTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    std::string name = std::string("pneumo_test_") + info->test_suite_name() + "_" + info->name();
+    for (char& c : name) {
+      if (c == '/') c = '_';
+    }
+    dir_ = fs::path(::testing::TempDir()) / name;
+    fs::remove_all(dir_);
+    ASSERT_TRUE(fs::create_directories(dir_));
+  }
+  void TearDown() override {
+    std::error_code ec;
+    fs::remove_all(dir_, ec);
+  }
+
+  std::string Path(const std::string& file) const { return (dir_ / file).string(); }
+
+  // runs `pneumo ARGS` (already quoted), capturing stdout and stderr
+  Outcome Pneumo(const std::string& args) const {
+    const std::string out = Path("stdout.txt"), err = Path("stderr.txt");
+    const std::string command = Quote(PNEUMO_BINARY) + " " + args + " >" + Quote(out) + " 2>" + Quote(err);
+    int status = std::system(command.c_str());
+    Outcome run;
+    run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    run.out = ReadText(out);
+    run.err = ReadText(err);
+    return run;
+  }
+
+  fs::path dir_;
+};
+
+TEST_F(PneumoBinaryTest, WithoutVerbFailsAndPrintsUsage) {
+  Outcome run = Pneumo("");
+  EXPECT_NE(run.exit_code, 0);
+  const std::string all = run.out + run.err;
+  EXPECT_FALSE(all.empty());
+  // a usage names the verbs
+  EXPECT_THAT(all, HasSubstr("rollout")) << all;
+  EXPECT_THAT(all, HasSubstr("info")) << all;
+  EXPECT_THAT(all, HasSubstr("params")) << all;
+}
+
+TEST_F(PneumoBinaryTest, HelpNamesTheVerbs) {
+  Outcome run = Pneumo("--help");
+  EXPECT_EQ(run.exit_code, 0);
+  EXPECT_THAT(run.out, HasSubstr("rollout"));
+  EXPECT_THAT(run.out, HasSubstr("info"));
+  EXPECT_THAT(run.out, HasSubstr("params"));
+}
+
+TEST_F(PneumoBinaryTest, UnknownVerbFails) {
+  Outcome run = Pneumo("simulate");
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_FALSE(run.err.empty());
+}
+
+TEST_F(PneumoBinaryTest, ParamsListsEveryKey) {
+  Outcome run = Pneumo("params");
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_THAT(run.out, HasSubstr("dead_volume"));
+  EXPECT_THAT(run.out, HasSubstr("sonic_conductance"));
+  ASSERT_FALSE(Parameters().empty());
+  for (const ParameterDoc& p : Parameters()) EXPECT_THAT(run.out, HasSubstr(p.key));
+}
+
+TEST_F(PneumoBinaryTest, ParamsMarkdownPrintsATable) {
+  Outcome run = Pneumo("params --markdown");
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_THAT(run.out, StartsWith("| key | unit | default | valid | scope | meaning |\n|---|---|---|---|---|---|\n"));
+  for (const ParameterDoc& p : Parameters()) EXPECT_THAT(run.out, HasSubstr("| `" + p.key + "` |"));
+  // one table row per key
+  size_t lines = 0;
+  for (char c : run.out) lines += c == '\n';
+  EXPECT_EQ(lines, Parameters().size() + 2);
+}
+
+TEST_F(PneumoBinaryTest, InfoListsTheCommandsOfTheOnOffRig) {
+  Outcome run = Pneumo("info " + Quote(ShippedModel("rig_onoff.xml")));
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  for (const char* signal : {"cyl.u1", "cyl.u2", "cyl.u3", "cyl.u4", "cyl.p_P", "cyl.p_N", "cyl.x"}) {
+    EXPECT_THAT(run.out, HasSubstr(signal));
+  }
+  EXPECT_THAT(run.out, HasSubstr("cylinder cyl"));
+}
+
+TEST_F(PneumoBinaryTest, InfoListsTheCommandOfTheProportionalRig) {
+  Outcome run = Pneumo("info " + Quote(ShippedModel("rig_proportional.xml")));
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_THAT(run.out, HasSubstr("commands: cyl.u\n"));
+  EXPECT_THAT(run.out, HasSubstr("p_supply 500000 Pa"));
+}
+
+constexpr char kOnOffLog[] =
+    "# a valid log for rig_onoff\n"
+    "time,cyl.u1,cyl.u2,cyl.u3,cyl.u4\n"
+    "0.000,1,0,0,1\n"
+    "0.001,1,0,0,1\n"
+    "0.002,1,0,0,1\n"
+    "0.003,0,1,1,0\n"
+    "0.004,0,1,1,0\n";
+
+TEST_F(PneumoBinaryTest, RolloutWritesTheOutput) {
+  WriteText(Path("in.csv"), kOnOffLog);
+  Outcome run = Pneumo("rollout " + Quote(ShippedModel("rig_onoff.xml")) + " --commands " + Quote(Path("in.csv")) +
+                   " --out " + Quote(Path("out.csv")));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  ASSERT_TRUE(fs::exists(Path("out.csv")));
+  EXPECT_FALSE(fs::exists(Path("out.csv.tmp")));
+  log::ReadResult read = log::ReadLog(Path("out.csv"), {});
+  ASSERT_TRUE(read.log) << read.error;
+  const log::Log& out = *read.log;
+  EXPECT_EQ(ColumnNames(out), (std::vector<std::string>{"cyl.u1", "cyl.u2", "cyl.u3", "cyl.u4", "cyl.p_P", "cyl.p_N",
+                                                        "cyl.x", "cyl.v", "cyl.p_S"}));
+  EXPECT_EQ(out.time, (std::vector<double>{0, 0.001, 0.002, 0.003, 0.004}));
+  EXPECT_EQ(Column(out, "u1"), (std::vector<double>{1, 1, 1, 0, 0}));
+  EXPECT_EQ(Column(out, "p_P")[0], 1e5);
+  EXPECT_GT(Column(out, "p_P")[3], 1e5);
+  EXPECT_EQ(Column(out, "p_S")[4], 3e5);
+  EXPECT_THAT(run.err, HasSubstr("wrote"));
+}
+
+TEST_F(PneumoBinaryTest, RolloutOfItsOwnOutputFileIsIdentical) {
+  WriteText(Path("in.csv"), kOnOffLog);
+  const std::string model = Quote(ShippedModel("rig_onoff.xml"));
+  Outcome first = Pneumo("rollout " + model + " --commands " + Quote(Path("in.csv")) + " --out " + Quote(Path("a.csv")));
+  ASSERT_EQ(first.exit_code, 0) << first.err;
+  Outcome second = Pneumo("rollout " + model + " --commands " + Quote(Path("a.csv")) + " --out " + Quote(Path("b.csv")));
+  ASSERT_EQ(second.exit_code, 0) << second.err;
+  log::ReadResult a = log::ReadLog(Path("a.csv"), {}), b = log::ReadLog(Path("b.csv"), {});
+  ASSERT_TRUE(a.log) << a.error;
+  ASSERT_TRUE(b.log) << b.error;
+  EXPECT_EQ(ColumnNames(*a.log), ColumnNames(*b.log));
+  EXPECT_EQ(a.log->time, b.log->time);
+  EXPECT_EQ(a.log->values, b.log->values);
+}
+
+TEST_F(PneumoBinaryTest, RolloutWithConstantCommands) {
+  Outcome run = Pneumo("rollout " + Quote(ShippedModel("rig_proportional.xml")) +
+                   " --duration 0.02 --set cyl.u=2 --out " + Quote(Path("out.csv")));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  log::ReadResult read = log::ReadLog(Path("out.csv"), {});
+  ASSERT_TRUE(read.log) << read.error;
+  EXPECT_EQ(read.log->rows(), 20u);
+  EXPECT_EQ(Column(*read.log, "u"), std::vector<double>(20, 2.0));
+}
+
+TEST_F(PneumoBinaryTest, RolloutRefusesBadConstantCommands) {
+  const std::string model = Quote(ShippedModel("rig_proportional.xml"));
+  for (const char* set : {"cyl.u9=1", "cyl.u=abc", "cyl.u", "cyl.u=nan"}) {
+    SCOPED_TRACE(set);
+    Outcome run = Pneumo("rollout " + model + " --duration 0.01 --set " + Quote(set) + " --out " + Quote(Path("out.csv")));
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_THAT(run.err, StartsWith("pneumo: "));
+    EXPECT_THAT(run.err, HasSubstr(std::string(set).substr(0, 5)));
+    EXPECT_FALSE(fs::exists(Path("out.csv")));
+  }
+}
+
+TEST_F(PneumoBinaryTest, RolloutRefusesRunWithoutLogOrDuration) {
+  Outcome run = Pneumo("rollout " + Quote(ShippedModel("rig_proportional.xml")) + " --out " + Quote(Path("out.csv")));
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_THAT(run.err, HasSubstr("duration"));
+  EXPECT_FALSE(fs::exists(Path("out.csv")));
+}
+
+// a bad command log for rig_onoff and where the reader must point
+struct BadLog {
+  const char* name;
+  const char* text;      // nullptr: the file does not exist
+  const char* location;  // ":LINE:COLUMN" after the path, "" for a file that cannot be opened
+  const char* message;   // part of the message
+};
+
+const BadLog kBadLogs[] = {
+    {"MissingTimeColumn", "# no time\nt,cyl.u1,cyl.u2,cyl.u3,cyl.u4\n0,1,0,0,1\n0.001,1,0,0,1\n", ":2:1", "time"},
+    {"TimeNotFirst", "cyl.u1,time,cyl.u2,cyl.u3,cyl.u4\n1,0,0,0,1\n1,0.001,0,0,1\n", ":1:", "time"},
+    {"CylinderNotInModel", "time,cyl.u1,cyl.u2,cyl.u3,cyl.u4,arm.u1\n0,1,0,0,1,0\n0.001,1,0,0,1,0\n", ":1:6", "arm"},
+    {"UnknownSignal", "time,cyl.u1,cyl.u2,cyl.u3,cyl.u4,cyl.pressure\n0,1,0,0,1,0\n0.001,1,0,0,1,0\n", ":1:6",
+     "pressure"},
+    {"NonNumericValue", "time,cyl.u1,cyl.u2,cyl.u3,cyl.u4\n0,1,0,0,1\n0.001,1,abc,0,1\n", ":3:3", "abc"},
+    {"NonFiniteValue", "time,cyl.u1,cyl.u2,cyl.u3,cyl.u4\n0,1,0,0,1\n0.001,1,0,0,1\n0.002,inf,0,0,1\n", ":4:2",
+     "finite"},
+    {"NanTime", "time,cyl.u1,cyl.u2,cyl.u3,cyl.u4\n0,1,0,0,1\nnan,1,0,0,1\n", ":3:1", "finite"},
+    {"TimeNotIncreasing", "time,cyl.u1,cyl.u2,cyl.u3,cyl.u4\n0,1,0,0,1\n0.001,1,0,0,1\n0.001,1,0,0,1\n", ":4:1",
+     "increasing"},
+    {"ValveStateTwo", "# rig A\n#\ntime,cyl.u1,cyl.u2,cyl.u3,cyl.u4\n0,1,0,0,1\n0.001,2,0,0,1\n", ":5:2", "0 or 1"},
+    {"WrongFieldCount", "time,cyl.u1,cyl.u2,cyl.u3,cyl.u4\n0,1,0,0,1\n0.001,1,0,0\n", ":3:", "fields"},
+    {"EmptyFile", "", ":1:1", "empty"},
+    {"HeaderOnly", "time,cyl.u1,cyl.u2,cyl.u3,cyl.u4\n", ":1:1", "no data rows"},
+    {"MissingFile", nullptr, "", "cannot open"},
+};
+
+class PneumoBadLogTest : public PneumoBinaryTest, public ::testing::WithParamInterface<BadLog> {
+ protected:
+  Outcome RolloutOf(const std::string& log_path) {
+    return Pneumo("rollout " + Quote(ShippedModel("rig_onoff.xml")) + " --commands " + Quote(log_path) + " --out " +
+                  Quote(Path("out.csv")));
+  }
+  std::string PrepareLog() {
+    const std::string path = Path("bad.csv");
+    if (GetParam().text) WriteText(path, GetParam().text);
+    return path;
+  }
+  void ExpectRefused(const Outcome& run, const std::string& log_path) {
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_THAT(run.err, StartsWith("pneumo: " + log_path + GetParam().location + (GetParam().location[0] ? "" : ": ")))
+        << run.err;
+    if (GetParam().location[0]) {
+      // "pneumo: FILE:LINE:COLUMN: message"
+      std::string rest = run.err.substr(std::min(run.err.size(), ("pneumo: " + log_path + ":").size()));
+      size_t line_end = rest.find(':');
+      ASSERT_NE(line_end, std::string::npos) << run.err;
+      size_t column_end = rest.find(": ", line_end + 1);
+      ASSERT_NE(column_end, std::string::npos) << run.err;
+      std::string line = rest.substr(0, line_end), column = rest.substr(line_end + 1, column_end - line_end - 1);
+      EXPECT_FALSE(line.empty());
+      EXPECT_FALSE(column.empty());
+      EXPECT_EQ(line.find_first_not_of("0123456789"), std::string::npos) << run.err;
+      EXPECT_EQ(column.find_first_not_of("0123456789"), std::string::npos) << run.err;
+    }
+    EXPECT_THAT(run.err, HasSubstr(GetParam().message));
+    EXPECT_THAT(run.err, ::testing::Not(HasSubstr("wrote")));
+    EXPECT_FALSE(fs::exists(Path("out.csv.tmp")));
+  }
+};
+
+TEST_P(PneumoBadLogTest, FailsWithFileLineColumnAndWritesNothing) {
+  const std::string log_path = PrepareLog();
+  Outcome run = RolloutOf(log_path);
+  ExpectRefused(run, log_path);
+  EXPECT_FALSE(fs::exists(Path("out.csv")));
+}
+
+TEST_P(PneumoBadLogTest, FailsAndLeavesAnExistingOutputUntouched) {
+  const std::string log_path = PrepareLog();
+  WriteText(Path("out.csv"), "precious\n");
+  Outcome run = RolloutOf(log_path);
+  ExpectRefused(run, log_path);
+  EXPECT_EQ(ReadText(Path("out.csv")), "precious\n");
+}
+
+INSTANTIATE_TEST_SUITE_P(Logs, PneumoBadLogTest, ::testing::ValuesIn(kBadLogs),
+                         [](const ::testing::TestParamInfo<BadLog>& info) { return std::string(info.param.name); });
+
+TEST_F(PneumoBinaryTest, RolloutRefusesLogOfAnotherValveKind) {
+  // well-formed, but for rig_proportional: the reader accepts it, the rollout does not
+  WriteText(Path("in.csv"), "time,cyl.u\n0,1\n0.001,1\n0.002,1\n");
+  Outcome run = Pneumo("rollout " + Quote(ShippedModel("rig_onoff.xml")) + " --commands " + Quote(Path("in.csv")) +
+                   " --out " + Quote(Path("out.csv")));
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_THAT(run.err, StartsWith("pneumo: "));
+  EXPECT_THAT(run.err, HasSubstr("cyl.u1"));
+  EXPECT_FALSE(fs::exists(Path("out.csv")));
+}
+
+TEST_F(PneumoBinaryTest, BadModelPathIsNamed) {
+  const std::string missing = Path("no_such_model.xml");
+  for (const std::string& args : {"info " + Quote(missing), "rollout " + Quote(missing) + " --duration 0.01 --out " +
+                                                                Quote(Path("out.csv"))}) {
+    SCOPED_TRACE(args);
+    Outcome run = Pneumo(args);
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_THAT(run.err, StartsWith("pneumo: " + missing));
+    EXPECT_FALSE(fs::exists(Path("out.csv")));
+  }
+}
+
+TEST_F(PneumoBinaryTest, BadPneumaticConfigurationNamesFileAndKey) {
+  std::string xml = ReadText(ShippedModel("rig_proportional.xml"));
+  const std::string key = "dead_volume=1.0e-5";
+  size_t at = xml.find(key);
+  ASSERT_NE(at, std::string::npos);
+  xml.replace(at, key.size(), "dead_volume=-1");
+  const std::string model = Path("bad_config.xml");
+  WriteText(model, xml);
+  for (const std::string& args :
+       {"info " + Quote(model), "rollout " + Quote(model) + " --duration 0.01 --out " + Quote(Path("out.csv"))}) {
+    SCOPED_TRACE(args);
+    Outcome run = Pneumo(args);
+    EXPECT_NE(run.exit_code, 0);
+    EXPECT_THAT(run.err, StartsWith("pneumo: " + model + ": "));
+    EXPECT_THAT(run.err, HasSubstr("dead_volume"));
+    EXPECT_THAT(run.err, HasSubstr("-1"));
+    EXPECT_FALSE(fs::exists(Path("out.csv")));
+  }
+
+  // an unknown key
+  xml = ReadText(ShippedModel("rig_onoff.xml"));
+  at = xml.find("sonic_conductance=");
+  ASSERT_NE(at, std::string::npos);
+  xml.replace(at, std::string("sonic_conductance").size(), "sonic_conductence");
+  WriteText(model, xml);
+  Outcome run = Pneumo("info " + Quote(model));
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_THAT(run.err, StartsWith("pneumo: " + model + ": "));
+  EXPECT_THAT(run.err, HasSubstr("sonic_conductence"));
+}
+
+}  // namespace
+}  // namespace pneumatic
