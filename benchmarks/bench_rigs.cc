@@ -12,13 +12,14 @@
 // step is (time per step with the extension - time per step without) / 2 chambers.
 //
 // Accuracy: the reference is the independent rigs.md implementation of tests/reference,
-// integrated with classical RK4 at 1 us over the same 4 s excitation. Its log is replayed
+// integrated with classical RK4 at 1 us over 4 s of the rig's excitation generated with every
+// command held 10 ms (so that every dt below divides the command period). Its log is replayed
 // through the model (pneumatic::Rollout) with the timestep set to dt = 0.5, 1, 2, 5, 10 ms, for
 // both chamber steps and in two modes: open loop (MuJoCo simulates the mechanics) and along the
 // reference's motion (follow_motion: only the pressures are simulated, paper 000's multi-step
 // prediction). The error is the max |p_sim - p_ref| over both chambers and all rows (the log
-// samples once per control period), as % of supply - exhaust, and for open loop max |x error|.
-// A dt that does not divide the control period cannot hold the commands and is skipped. A
+// samples once per command period), as % of supply - exhaust, and for open loop max |x error|.
+// A dt that does not divide the command period cannot hold the commands and is skipped. A
 // replay that Rollout rejects (MuJoCo warnings, non-finite state) or whose pressure leaves
 // [0, 10 supply] is "diverged".
 #include <algorithm>
@@ -51,6 +52,7 @@ constexpr Rig kRigs[] = {Rig::kOnOff, Rig::kProportional, Rig::kPerChamber};
 constexpr double kReferenceSeconds = 4;     // length of the excitation and of each replay, s
 constexpr unsigned kReferenceSeed = 1;
 constexpr double kReferenceStep = 1e-6;     // RK4 step of the reference, s
+constexpr double kAccuracyPeriod = 10e-3;   // command period of the accuracy references, s
 constexpr double kSpeedSeconds = 1;         // wall time of one speed measurement, s
 constexpr int kSpeedRepeats = 3;
 constexpr double kTimesteps[] = {0.5e-3, 1e-3, 2e-3, 5e-3, 10e-3};
@@ -314,7 +316,7 @@ bool PrintSpeed(const std::vector<std::vector<pneumatic::reference::RigCommand>>
 
 // the outcome of one replay against the reference
 struct ReplayError {
-  bool skipped = false;     // dt does not divide the control period
+  bool skipped = false;     // dt does not divide the command period
   bool diverged = false;
   std::string reason;       // why it diverged
   double pressure = 0;      // max |p_sim - p_ref| over both chambers and all rows, Pa
@@ -324,7 +326,7 @@ struct ReplayError {
 // replays `reference` through the model of `rig` at timestep dt
 ReplayError Replay(Rig rig, Step step, double dt, bool follow_motion, const pneumatic::log::Log& reference) {
   ReplayError e;
-  double steps = pneumatic::reference::ControlPeriod(rig) / dt;
+  double steps = (reference.time[1] - reference.time[0]) / dt;
   if (std::fabs(steps - std::round(steps)) > 1e-9 * steps) {
     e.skipped = true;
     return e;
@@ -440,18 +442,24 @@ int main() {
               std::thread::hardware_concurrency(), mj_versionString(), Compiler().c_str(),
               std::strlen(PNEUMATIC_BUILD_TYPE) ? PNEUMATIC_BUILD_TYPE : "unspecified");
 
-  // the reference of each rig: excitation and fine-step RK4, computed once
+  // speed runs use each rig's own excitation; the accuracy references hold every command for
+  // kAccuracyPeriod, which every dt divides, so each rig is measured at every dt
   std::vector<std::vector<pneumatic::reference::RigCommand>> excitations;
   std::vector<pneumatic::log::Log> references;
-  std::vector<double> reference_seconds;
+  std::vector<double> reference_seconds, stroke_used;
   for (Rig rig : kRigs) {
     std::fprintf(stderr, "reference: rig %s\n", RigName(rig));
     excitations.push_back(pneumatic::reference::Excitation(rig, kReferenceSeconds, kReferenceSeed));
     Clock::time_point start = Clock::now();
-    std::vector<pneumatic::reference::Sample> samples =
-        pneumatic::reference::Simulate(pneumatic::reference::DefaultParams(rig), pneumatic::reference::RigState{},
-                                       excitations.back(), pneumatic::reference::ControlPeriod(rig), kReferenceStep);
+    pneumatic::reference::RigParams params = pneumatic::reference::DefaultParams(rig);
+    std::vector<pneumatic::reference::Sample> samples = pneumatic::reference::Simulate(
+        params, pneumatic::reference::RigState{},
+        pneumatic::reference::Excitation(rig, kReferenceSeconds, kReferenceSeed, kAccuracyPeriod), kAccuracyPeriod,
+        kReferenceStep);
     reference_seconds.push_back(Seconds(start));
+    double x_max = 0;
+    for (const auto& sample : samples) x_max = std::max(x_max, std::fabs(sample.state.x));
+    stroke_used.push_back(x_max / (params.stroke / 2));
     references.push_back(pneumatic::reference::ToLog(rig, samples));
   }
 
@@ -482,14 +490,16 @@ int main() {
   }
   std::printf("### Accuracy\n\n");
   std::printf("Reference: the rigs.md equations integrated independently (tests/reference) with classical RK4 "
-              "at %g us over %g s of Excitation(rig, %g s, seed %u); it took %.2f s (A), %.2f s (B), %.2f s (C). "
-              "Errors are the max |p_sim - p_ref| over both chambers and every control period, in %% of "
+              "at %g us over %g s of the rig's excitation (seed %u) with every command held %g ms, so that every "
+              "dt divides the command period; it took %.2f s (A), %.2f s (B), %.2f s (C), and the piston used "
+              "%.0f %%, %.0f %%, %.0f %% of its half stroke. "
+              "Errors are the max |p_sim - p_ref| over both chambers and every command period, in %% of "
               "supply - exhaust (A %g, B %g, C %g Pa), and the max |x_sim - x_ref|. \"exact\" is the extension's "
               "semi-analytic chamber step (step=exact, the default), \"explicit\" MuJoCo's plain explicit Euler on the "
-              "same equations (step=explicit). A dt that does not divide the control period (A 2 ms, B 1 ms, "
-              "C 10 ms) cannot hold the commands: n/a.\n\n",
-              kReferenceStep * 1e6, kReferenceSeconds, kReferenceSeconds, kReferenceSeed, reference_seconds[0],
-              reference_seconds[1], reference_seconds[2], PressureRange(Rig::kOnOff), PressureRange(Rig::kProportional),
+              "same equations (step=explicit).\n\n",
+              kReferenceStep * 1e6, kReferenceSeconds, kReferenceSeed, kAccuracyPeriod * 1e3, reference_seconds[0],
+              reference_seconds[1], reference_seconds[2], 100 * stroke_used[0], 100 * stroke_used[1],
+              100 * stroke_used[2], PressureRange(Rig::kOnOff), PressureRange(Rig::kProportional),
               PressureRange(Rig::kPerChamber));
   PrintAccuracy("Open loop", "The whole rig is simulated: MuJoCo's semi-implicit Euler mechanics and the chamber step.",
                 true, open_loop);

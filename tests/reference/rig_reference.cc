@@ -394,8 +394,9 @@ std::vector<RigCommand> RunExcitation(const RigParams& p, double duration, Polic
 
 }  // namespace
 
-std::vector<RigCommand> Excitation(Rig rig, double duration, uint32_t seed) {
-  const RigParams p = DefaultParams(rig);
+std::vector<RigCommand> Excitation(Rig rig, double duration, uint32_t seed, double period) {
+  RigParams p = DefaultParams(rig);
+  if (period > 0) p.control_period = period;
   const double half = 0.5 * p.stroke;
   Lcg rng(seed);
   switch (rig) {

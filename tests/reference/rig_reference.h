@@ -153,7 +153,8 @@ std::vector<Sample> Simulate(const RigParams& p, const RigState& initial,
 //    when a predicted position error leaves a band around a random set point;
 // B: multi-sine plus random steps in V, minus position/velocity feedback, saturated at +-5 V;
 // C: common-mode sweep/steps plus differential steps and feedback, clamped to [3, 7] V.
-std::vector<RigCommand> Excitation(Rig rig, double duration, uint32_t seed);
+// `period` > 0 replaces the rig's control period: the commands are then meant to be held that long.
+std::vector<RigCommand> Excitation(Rig rig, double duration, uint32_t seed, double period = 0);
 
 // the RK4 step the excitation generators use internally, s
 inline constexpr double kExcitationStep = 1e-5;
