@@ -368,7 +368,9 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
   std::map<std::string, double> cylinder_numbers, chamber_numbers[2];
   for (const Param& p : kParams) {
     if (p.choices) continue;
-    for (int k = (p.scope == Scope::kCylinder ? -1 : 0); k < (p.scope == Scope::kCylinder ? 0 : 2); ++k) {
+    // k = -1: the cylinder's own value; k = 0, 1: chamber P's and N's
+    int first = p.scope == Scope::kCylinder ? -1 : 0, last = p.scope == Scope::kCylinder ? -1 : 1;
+    for (int k = first; k <= last; ++k) {
       const auto& values = k < 0 ? raw.cylinder : raw.chamber[k];
       const ChamberConfig* chamber = k < 0 ? nullptr : &c.chamber[k];
       std::string key = prefixed(k, p.key);
