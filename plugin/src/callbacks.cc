@@ -33,7 +33,7 @@ Registry& GetRegistry() {
   return registry;
 }
 
-// the role of actuator id in m, or nullptr if m is not attached; call under the lock
+// the attached model m, or nullptr; call under the lock
 const AttachedModel* Find(const Registry& r, const mjModel* m) {
   auto it = r.models.find(m);
   return it == r.models.end() ? nullptr : it->second.get();
