@@ -88,7 +88,7 @@ const Param kParams[] = {
     {"coulomb_friction", Scope::kCylinder, AppliesTo::kAll, "N (N m)", "none", nullptr, 0, kInf, false, true,
      "sliding seal friction; static friction is the transmission's frictionloss (needs actuator <name>.friction)"},
     {"stribeck_velocity", Scope::kCylinder, AppliesTo::kFriction, "m/s (rad/s)", "0.01", nullptr, 0, kInf, true, true,
-     "speed over which friction falls from the static to the Coulomb level"},
+     "v_s of the Stribeck curve: friction falls from the static to the Coulomb level over this speed"},
     {"step", Scope::kCylinder, AppliesTo::kAll, "", "exact", "exact explicit", 0, 0, false, false,
      "chamber integration inside a MuJoCo step: adaptive implicit (exact) or plain explicit Euler (comparison only)"},
     {"step_tolerance", Scope::kCylinder, AppliesTo::kAll, "", "1e-4", nullptr, 0, 0.1, true, false,

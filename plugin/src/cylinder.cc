@@ -284,11 +284,14 @@ double Cylinder::ChamberGain(int chamber) const {
 }
 
 double Cylinder::FrictionBias(const mjModel* m, const mjData* d) const {
-  // frictionloss holds the piston up to the static level; once sliding, this term gives back
-  // the difference so the sliding friction falls to the Coulomb level (Stribeck-like)
+  // Stribeck curve F(v) = F_c + (F_s - F_c) exp(-(v/v_s)^2) against the motion: frictionloss
+  // gives F_s, this term gives back (F_s - F_c)(1 - exp(-(v/v_s)^2)) along it. Its slope is zero
+  // at rest, so it cannot turn the soft frictionloss constraint's creep into a breakaway
   double v = PistonVelocity(m, d, info_);
-  return (static_friction_ - config_.coulomb_friction.value_or(static_friction_)) *
-         std::tanh(v / config_.stribeck_velocity);
+  double ratio = v / config_.stribeck_velocity;
+  double give_back = (static_friction_ - config_.coulomb_friction.value_or(static_friction_)) *
+                     (1 - std::exp(-ratio * ratio));
+  return v > 0 ? give_back : -give_back;
 }
 
 double PistonPosition(const mjModel*, const mjData* d, const CylinderInfo& c) {
