@@ -57,20 +57,6 @@ std::string OnOffWithDelays() {
   return xml;
 }
 
-// rig A commanded by switched PWM at 50 Hz (paper 003 eqs. 12-13)
-const char kPwmRig[] = R"(<mujoco model="rig_pwm">
-  <option timestep="0.00025" integrator="Euler" gravity="0 0 0"/>
-  <worldbody><body name="piston"><inertial pos="0 0 0" mass="0.9" diaginertia="1e-4 1e-4 1e-4"/>
-    <joint name="x" type="slide" axis="1 0 0" limited="true" range="-0.05 0.05" damping="50"/></body></worldbody>
-  <actuator>
-    <general name="cyl.duty" joint="x" gaintype="user" ctrllimited="true" ctrlrange="-1 1"/>
-    <general name="cyl.P" joint="x" dyntype="user" gaintype="user"/>
-    <general name="cyl.N" joint="x" dyntype="user" gaintype="user"/>
-  </actuator>
-  <custom><text name="pneumatic:cyl" data="valve=onoff input=pwm pwm_frequency=50 stroke=0.1 area=1.814e-4
-    dead_volume=2.0e-6 p_supply=3.0e5 p_exhaust=1.0e5 temperature=296 polytropic_index=1.2"/></custom>
-</mujoco>)";
-
 int CommandId(const CylinderInfo& c, const std::string& signal) {
   for (const auto& [name, id] : c.command_actuators) {
     if (name == signal) return id;
@@ -492,7 +478,7 @@ TEST_F(EngineState, PwmStateIsTime) {
   // switched PWM at 50 Hz, duty 0.5: U1 and U4 open for the first 10 ms of each 20 ms period, so
   // d->time is state; with the same time the two mjData agree bit for bit
   AttachedModel rig;
-  ASSERT_TRUE(rig.Load(kPwmRig)) << rig.error();
+  ASSERT_TRUE(rig.Load(testing::RigAOnPwm(50))) << rig.error();
   const mjModel* m = rig.m();
   CylinderInfo cyl = rig.cylinder();
   mjData* on = rig.d();
@@ -547,7 +533,7 @@ TEST(BadCommands, NoNaNFromBadCommands) {
                         Case{"rig_proportional u = -inf", ReadText(ShippedModel("rig_proportional.xml")), "u", -kInf, false},
                         Case{"rig_per_chamber uP = NaN", ReadText(ShippedModel("rig_per_chamber.xml")), "uP", kNaN, true},
                         Case{"rig_per_chamber uN = +inf", ReadText(ShippedModel("rig_per_chamber.xml")), "uN", kInf, false},
-                        Case{"pwm duty = NaN", kPwmRig, "duty", kNaN, true}}) {
+                        Case{"pwm duty = NaN", testing::RigAOnPwm(50), "duty", kNaN, true}}) {
     SCOPED_TRACE(c.name);
     AttachedModel rig;
     ASSERT_TRUE(rig.Load(c.xml)) << rig.error();

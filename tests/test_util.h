@@ -76,6 +76,21 @@ class AttachedModel {
 // path of a model shipped in models_mjcf/
 inline std::string ShippedModel(const std::string& file) { return std::string(PNEUMATIC_MODELS_DIR) + "/" + file; }
 
+// rig A with its valves driven by one duty command at `frequency` (0: the averaged model)
+inline std::string RigAOnPwm(double frequency) {
+  return R"(<mujoco><option timestep="0.00025" gravity="0 0 0"/>
+    <worldbody><body><inertial pos="0 0 0" mass="0.9" diaginertia="1e-4 1e-4 1e-4"/>
+      <joint name="x" type="slide" axis="1 0 0" limited="true" range="-0.05 0.05" damping="50"/></body></worldbody>
+    <actuator>
+      <general name="cyl.duty" joint="x" gaintype="user" ctrllimited="true" ctrlrange="-1 1"/>
+      <general name="cyl.P" joint="x" dyntype="user" gaintype="user"/>
+      <general name="cyl.N" joint="x" dyntype="user" gaintype="user"/>
+    </actuator>
+    <custom><text name="pneumatic:cyl" data="valve=onoff input=pwm pwm_frequency=)" +
+         std::to_string(frequency) + R"( stroke=0.1 area=1.814e-4 dead_volume=2e-6 p_supply=3e5 p_exhaust=1e5
+      temperature=296 polytropic_index=1.2 sonic_conductance=3.4e-9 critical_ratio=0.433"/></custom></mujoco>)";
+}
+
 // any MuJoCo warning during a test is a failure (as in MuJoCo's own tests)
 class MujocoTest : public ::testing::Test {
  protected:
