@@ -148,6 +148,22 @@ std::string ParseHeader(const std::vector<std::string_view>& fields,
   return "";
 }
 
+// the first i whose step time[i+1] - time[i] differs from the median step (relative 1e-6 plus
+// 1e-9 s), or -1; *median is set when there are at least three rows
+long NonUniformStep(const std::vector<double>& time, double* median) {
+  if (time.size() < 3) return -1;
+  std::vector<double> steps(time.size() - 1);
+  for (std::size_t i = 0; i < steps.size(); ++i) steps[i] = time[i + 1] - time[i];
+  std::vector<double> sorted = steps;
+  const auto middle = sorted.begin() + static_cast<std::ptrdiff_t>((sorted.size() - 1) / 2);
+  std::nth_element(sorted.begin(), middle, sorted.end());
+  *median = *middle;
+  for (std::size_t i = 0; i < steps.size(); ++i) {
+    if (std::fabs(steps[i] - *median) > 1e-6 * *median + 1e-9) return static_cast<long>(i);
+  }
+  return -1;
+}
+
 ReadResult Parse(std::istream& in, const std::string& name, const ReadOptions& options) {
   auto fail = [&name](std::size_t line, std::size_t column, const std::string& message) {
     ReadResult result;
@@ -237,26 +253,20 @@ ReadResult Parse(std::istream& in, const std::string& name, const ReadOptions& o
   if (log.time.empty()) return fail(header_line, 1, "header has no data rows");
 
   // uniform spacing: every step matches the median step
-  if (options.uniform_time && log.rows() > 2) {
-    std::vector<double> steps(log.rows() - 1);
-    for (std::size_t i = 0; i < steps.size(); ++i) steps[i] = log.time[i + 1] - log.time[i];
-    std::vector<double> sorted = steps;
-    const auto middle = sorted.begin() + static_cast<std::ptrdiff_t>((sorted.size() - 1) / 2);
-    std::nth_element(sorted.begin(), middle, sorted.end());
-    const double median = *middle;
-    for (std::size_t i = 0; i < steps.size(); ++i) {
-      if (std::fabs(steps[i] - median) > 1e-6 * median + 1e-9) {
-        return fail(row_lines[i + 1], 1,
-                    "time step " + Format(steps[i]) + " s differs from the median step " +
-                        Format(median) + " s, expected uniformly spaced rows");
-      }
+  if (options.uniform_time) {
+    double median = 0;
+    if (const long i = NonUniformStep(log.time, &median); i >= 0) {
+      const auto k = static_cast<std::size_t>(i);
+      return fail(row_lines[k + 1], 1,
+                  "time step " + Format(log.time[k + 1] - log.time[k]) + " s differs from the median step " +
+                      Format(median) + " s, expected uniformly spaced rows");
     }
   }
   return {std::move(log), ""};
 }
 
-// what would make the reader reject `log`, or ""
-std::string CheckForWriting(const Log& log) {
+// what would make the reader reject `log` (spacing aside), or ""
+std::string CheckContents(const Log& log) {
   if (log.time.empty()) return "log has no rows";
   if (log.values.size() != log.columns.size()) {
     return "log has " + std::to_string(log.columns.size()) + " columns but " +
@@ -298,6 +308,18 @@ std::string CheckForWriting(const Log& log) {
 }
 
 }  // namespace
+
+std::string ValidateLog(const Log& log, bool uniform_time) {
+  if (std::string problem = CheckContents(log); !problem.empty()) return problem;
+  double median = 0;
+  if (const long i = uniform_time ? NonUniformStep(log.time, &median) : -1; i >= 0) {
+    const auto k = static_cast<std::size_t>(i);
+    return "rows " + std::to_string(k) + " and " + std::to_string(k + 1) + " are " +
+           Format(log.time[k + 1] - log.time[k]) + " s apart, not the median step " + Format(median) +
+           " s: rows must be uniformly spaced";
+  }
+  return "";
+}
 
 const std::vector<SignalInfo>& KnownSignals() {
   static const std::vector<SignalInfo> signals = {
@@ -364,7 +386,7 @@ ReadResult ReadLog(const std::string& path, const ReadOptions& options) {
 }
 
 std::string WriteLog(const std::string& path, const Log& log) {
-  const std::string problem = CheckForWriting(log);
+  const std::string problem = CheckContents(log);
   if (!problem.empty()) return path + ": " + problem;
 
   // write everything to a temporary file next to the target

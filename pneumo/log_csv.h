@@ -112,6 +112,12 @@ ReadResult ParseLog(std::istream& in, const std::string& name, const ReadOptions
 // Reads the log file at `path`, as ParseLog() does.
 ReadResult ReadLog(const std::string& path, const ReadOptions& options);
 
+// Checks a log held in memory as the reader checks a file: one value per row in every column,
+// known signals, no duplicate columns, finite values, strictly increasing time, valve states
+// 0 or 1, and, with `uniform_time`, uniformly spaced rows. Returns "" or what is wrong
+// (rows counted from 0).
+std::string ValidateLog(const Log& log, bool uniform_time);
+
 // Writes `log` to `path`. Every double is printed with the fewest digits that read back
 // to the same bits, so ReadLog() returns exactly the values written. The file is written
 // to `path`.tmp and then renamed over `path`, so a failure never leaves a partial file.

@@ -42,21 +42,15 @@ RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutO
   size_t rows = 0;
   if (options.duration && !(*options.duration > 0)) return fail("the duration must be positive");
   if (commands) {
+    // a log built in memory gets the checks a file gets; each row holds its commands for one
+    // period, so rows must be uniformly spaced (log_format.md)
+    if (std::string problem = log::ValidateLog(*commands, /*uniform_time=*/true); !problem.empty()) {
+      return fail("command log: " + problem);
+    }
     if (commands->rows() < 2) return fail("the command log needs at least two rows to define its period");
     if (options.period > 0) return fail("a row period is only chosen without a command log (the log's rows set it)");
     period = commands->Period();
     t0 = commands->time[0];
-    // each row holds its commands for one period: rows must be evenly spaced (log_format.md)
-    for (size_t i = 1; i < commands->rows(); ++i) {
-      double spacing = commands->time[i] - commands->time[i - 1];
-      if (std::fabs(spacing - period) > 1e-6 * period + 1e-9) {
-        return fail("rows " + std::to_string(i) + " and " + std::to_string(i + 1) + " are " + std::to_string(spacing) +
-                    " s apart, not the log's period " + std::to_string(period) + " s: rows must be evenly spaced");
-      }
-    }
-    for (const log::Column& column : commands->columns) {
-      if (!log::FindSignal(column.signal)) return fail("log column '" + column.name() + "' is not a signal of log_format.md");
-    }
     rows = commands->rows();
     if (options.duration) {
       rows = 0;
@@ -145,7 +139,7 @@ RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutO
     return "";
   };
   // with the motion prescribed, cancel the smooth forces so that MuJoCo's semi-implicit step moves
-  // each piston exactly along the prescribed line (and the chamber step sees that velocity)
+  // each piston exactly to the curve's next point (and the chamber step sees that velocity)
   auto step_along_motion = [&](mjData* data, size_t row, long k) {
     set_motion(data, row, k);
     mju_zero(data->qfrc_applied, m->nv);

@@ -279,6 +279,16 @@ TEST_F(RolloutTest, RefusesDurationWithoutLog) {
   }
 }
 
+TEST_F(RolloutTest, RefusesInMemoryLogWithAShortColumn) {
+  // a log built in code whose command column has fewer values than rows: refused, not read past its end
+  Load("rig_proportional.xml");
+  log::Log commands = SineCommands(10, 1, 1);
+  commands.values[0].pop_back();
+  RolloutResult result = Rollout(m(), &commands, {});
+  EXPECT_FALSE(result.log);
+  EXPECT_THAT(result.error, HasSubstr("command log: column \"cyl.u\" has 9 values, expected one per row (10)"));
+}
+
 TEST_F(RolloutTest, RefusesLogWithFewerThanTwoRows) {
   Load("rig_proportional.xml");
   log::Log commands = SineCommands(1, 1, 1);
