@@ -119,10 +119,19 @@ ReadResult ReadLog(const std::string& path, const ReadOptions& options);
 std::string ValidateLog(const Log& log, bool uniform_time);
 
 // Writes `log` to `path`. Every double is printed with the fewest digits that read back
-// to the same bits, so ReadLog() returns exactly the values written. The file is written
-// to `path`.tmp and then renamed over `path`, so a failure never leaves a partial file.
-// Refuses logs the reader would reject (except for non-uniform time). Returns an empty
-// string on success, or an error message.
+// to the same bits, so ReadLog() returns exactly the values written. Where it goes:
+//  - "-" is standard output;
+//  - an existing path that is not a regular file once symlinks are followed (a device such
+//    as /dev/null or /dev/full, a FIFO, a socket), or any existing path in /dev or /proc or
+//    linked into them (/dev/stdout), is opened and written in place, never replaced;
+//  - otherwise (a regular file, a new file) the log goes to a temporary file of its own in
+//    the target's directory, which is renamed over the target once completely written, so
+//    the target is either untouched or the whole new log, concurrent writers never share a
+//    temporary, and a symlink to the target keeps pointing to the new log. On failure the
+//    temporary is removed and nothing is created at the target.
+// A directory is refused. Refuses logs the reader would reject (except for non-uniform
+// time). Returns an empty string on success, or a one-line message starting with `path`,
+// e.g. "/dev/full: writing failed: No space left on device".
 std::string WriteLog(const std::string& path, const Log& log);
 
 }  // namespace pneumatic::log

@@ -2,9 +2,15 @@
 
 #include "log_csv.h"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cerrno>
 #include <cfloat>
 #include <cstdint>
 #include <cstring>
@@ -14,6 +20,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace pneumatic::log {
@@ -64,6 +71,23 @@ class LogFileTest : public ::testing::Test {
     return Path(name);
   }
 
+  std::string ReadText(const std::string& path) const {
+    std::ifstream in(path, std::ios::binary);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+  }
+
+  // names of the entries of `dir`, sorted; hidden temporaries included
+  static std::vector<std::string> Entries(const fs::path& dir) {
+    std::vector<std::string> names;
+    for (const fs::directory_entry& entry : fs::directory_iterator(dir)) {
+      names.push_back(entry.path().filename().string());
+    }
+    std::sort(names.begin(), names.end());
+    return names;
+  }
+
   fs::path dir_;
 };
 
@@ -75,6 +99,35 @@ Log SmallLog() {
   log.time = {0.0, 0.002, 0.004};
   log.values = {{1, 0, 1}, {1e5, 1.3e5, 1.2e5}, {0, 1e-5, 2e-5}};
   return log;
+}
+
+// SmallLog() as WriteLog() prints it
+constexpr char kSmallLogText[] =
+    "# rig: models_mjcf/rig_onoff.xml\n#\ntime,cyl.u1,cyl.p_P,cyl.x\n"
+    "0,1,100000,0\n0.002,0,130000,0.00001\n0.004,1,120000,0.00002\n";
+
+// a log of some 500 KB, written in many pieces; `scale` tells two of them apart
+Log LongLog(double scale) {
+  Log log;
+  log.comments = {"scale " + std::to_string(scale)};
+  log.columns = {{"cyl", "p_P"}, {"cyl", "x"}};
+  log.values.resize(2);
+  for (int r = 0; r < 20000; ++r) {
+    log.time.push_back(r * 0.001);
+    log.values[0].push_back(1e5 + scale * r);
+    log.values[1].push_back(scale * r / 3.0);
+  }
+  return log;
+}
+
+bool SameLog(const Log& a, const Log& b) {
+  auto names = [](const Log& log) {
+    std::vector<std::string> names;
+    for (const Column& column : log.columns) names.push_back(column.name());
+    return names;
+  };
+  return a.comments == b.comments && names(a) == names(b) && a.time == b.time &&
+         a.values == b.values;
 }
 
 // accepted input
@@ -400,7 +453,7 @@ TEST_F(LogFileTest, RoundTripIsBitIdentical) {
   for (const Log* original : {&log, &noise}) {
     const std::string path = Path("round_trip.csv");
     ASSERT_EQ(WriteLog(path, *original), "");
-    EXPECT_FALSE(fs::exists(path + ".tmp"));
+    EXPECT_EQ(Entries(dir_), std::vector<std::string>{"round_trip.csv"});
     const ReadResult result = ReadLog(path, {});
     ASSERT_TRUE(result.log.has_value()) << result.error;
     const Log& read = *result.log;
@@ -427,20 +480,14 @@ TEST_F(LogFileTest, RoundTripIsBitIdentical) {
 TEST_F(LogFileTest, WritesPlainReadableNumbers) {
   const std::string path = Path("plain.csv");
   ASSERT_EQ(WriteLog(path, SmallLog()), "");
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  EXPECT_EQ(text.str(),
-            "# rig: models_mjcf/rig_onoff.xml\n#\ntime,cyl.u1,cyl.p_P,cyl.x\n"
-            "0,1,100000,0\n0.002,0,130000,0.00001\n0.004,1,120000,0.00002\n");
+  EXPECT_EQ(ReadText(path), kSmallLogText);
 }
 
 TEST_F(LogFileTest, WriteRefusesLogsTheReaderWouldReject) {
   const std::string path = Path("refused.csv");
   auto expect_refused = [&](const Log& log, const std::string& message_part) {
     EXPECT_THAT(WriteLog(path, log), HasSubstr(message_part));
-    EXPECT_FALSE(fs::exists(path));
-    EXPECT_FALSE(fs::exists(path + ".tmp"));
+    EXPECT_TRUE(fs::is_empty(dir_));
   };
   Log log = SmallLog();
   log.values[1].pop_back();
@@ -477,21 +524,134 @@ TEST_F(LogFileTest, FailedWriteKeepsPreviousFile) {
   Log log = SmallLog();
   log.values[0][0] = 2;
   EXPECT_NE(WriteLog(path, log), "");
-  EXPECT_TRUE(ReadLog(path, {}).log.has_value());
-  // an unwritable destination: a missing directory
-  EXPECT_THAT(WriteLog(Path("missing/dir/log.csv"), SmallLog()), HasSubstr("cannot open"));
-  // a destination that is a directory cannot be replaced
+  EXPECT_EQ(ReadText(path), kExample);
+  // a destination that is a directory is refused, and nothing is left beside it
   fs::create_directory(Path("taken.csv"));
-  EXPECT_THAT(WriteLog(Path("taken.csv"), SmallLog()), HasSubstr("cannot replace"));
-  EXPECT_FALSE(fs::exists(Path("taken.csv.tmp")));
+  EXPECT_EQ(WriteLog(Path("taken.csv"), SmallLog()),
+            Path("taken.csv") + ": is a directory, expected a log file");
+  EXPECT_EQ(Entries(dir_), (std::vector<std::string>{"kept.csv", "taken.csv"}));
+  EXPECT_TRUE(fs::is_empty(Path("taken.csv")));
 }
 
-TEST_F(LogFileTest, WriteReplacesExistingFile) {
+TEST_F(LogFileTest, WriteReplacesExistingFileAndLeavesNoTemporary) {
   const std::string path = WriteText("replaced.csv", kExample);
   ASSERT_EQ(WriteLog(path, SmallLog()), "");
-  const ReadResult result = ReadLog(path, {});
-  ASSERT_TRUE(result.log.has_value()) << result.error;
-  EXPECT_EQ(result.log->columns.size(), 3u);
+  EXPECT_EQ(ReadText(path), kSmallLogText);
+  EXPECT_EQ(Entries(dir_), std::vector<std::string>{"replaced.csv"});
+}
+
+TEST_F(LogFileTest, NewFileGetsThePermissionsOfTheUmask) {
+  const mode_t previous = ::umask(027);
+  const std::string error = WriteLog(Path("new.csv"), SmallLog());
+  ::umask(previous);
+  ASSERT_EQ(error, "");
+  EXPECT_EQ(fs::status(Path("new.csv")).permissions(),
+            fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read);
+}
+
+TEST_F(LogFileTest, WriteThroughSymlinkReplacesTheFileAndKeepsTheLink) {
+  const std::string target = WriteText("target.csv", kExample);
+  fs::create_symlink("target.csv", Path("link.csv"));
+  ASSERT_EQ(WriteLog(Path("link.csv"), SmallLog()), "");
+  EXPECT_TRUE(fs::is_symlink(Path("link.csv")));
+  EXPECT_EQ(ReadText(target), kSmallLogText);
+  EXPECT_EQ(Entries(dir_), (std::vector<std::string>{"link.csv", "target.csv"}));
+}
+
+TEST_F(LogFileTest, WriteIntoMissingDirectoryFailsAndCreatesNothing) {
+  const std::string path = Path("missing/dir/out.csv");
+  EXPECT_EQ(WriteLog(path, SmallLog()), path + ": cannot create a temporary file in " +
+                                            Path("missing/dir") + ": " + std::strerror(ENOENT));
+  EXPECT_TRUE(fs::is_empty(dir_));
+}
+
+TEST_F(LogFileTest, WriteIntoUnwritableDirectoryFailsAndCreatesNothing) {
+  if (::geteuid() == 0) GTEST_SKIP() << "root can write into any directory";
+  const std::string locked = Path("locked"), path = Path("locked/out.csv");
+  ASSERT_TRUE(fs::create_directory(locked));
+  fs::permissions(locked, fs::perms::owner_read | fs::perms::owner_exec);
+  const std::string error = WriteLog(path, SmallLog());
+  fs::permissions(locked, fs::perms::owner_all);
+  EXPECT_EQ(error,
+            path + ": cannot create a temporary file in " + locked + ": " + std::strerror(EACCES));
+  EXPECT_TRUE(fs::is_empty(locked));
+}
+
+TEST_F(LogFileTest, ConcurrentWritersOfOneTargetBothSucceedAndLeaveOneCompleteLog) {
+  const Log a = LongLog(1), b = LongLog(2);
+  const std::string path = Path("shared.csv");
+  for (int round = 0; round < 10; ++round) {
+    std::string error_a = "not run", error_b = "not run";
+    std::thread writer_a([&] { error_a = WriteLog(path, a); });
+    std::thread writer_b([&] { error_b = WriteLog(path, b); });
+    writer_a.join();
+    writer_b.join();
+    EXPECT_EQ(error_a, "");
+    EXPECT_EQ(error_b, "");
+    const ReadResult read = ReadLog(path, {});
+    ASSERT_TRUE(read.log.has_value()) << read.error;
+    EXPECT_TRUE(SameLog(*read.log, a) || SameLog(*read.log, b)) << "round " << round;
+    EXPECT_EQ(Entries(dir_), std::vector<std::string>{"shared.csv"});
+  }
+}
+
+// special files are written in place and stay what they are
+
+TEST_F(LogFileTest, WriteToDevFullFailsAndKeepsTheDevice) {
+  if (!fs::is_character_file("/dev/full")) GTEST_SKIP() << "no /dev/full";
+  EXPECT_EQ(WriteLog("/dev/full", SmallLog()),
+            std::string("/dev/full: writing failed: ") + std::strerror(ENOSPC));
+  EXPECT_TRUE(fs::is_character_file(fs::symlink_status("/dev/full")));
+}
+
+TEST_F(LogFileTest, WriteToFifoDeliversTheLogAndKeepsTheFifo) {
+  const std::string path = Path("pipe");
+  ASSERT_EQ(::mkfifo(path.c_str(), 0600), 0) << std::strerror(errno);
+  // a read end, and a spare write end so that the reader sees the end only after WriteLog
+  const int reader = ::open(path.c_str(), O_RDONLY | O_NONBLOCK);
+  ASSERT_GE(reader, 0) << std::strerror(errno);
+  const int spare = ::open(path.c_str(), O_WRONLY);
+  ASSERT_GE(spare, 0) << std::strerror(errno);
+  ASSERT_EQ(::fcntl(reader, F_SETFL, 0), 0);
+  std::string received;
+  std::thread read_all([&] {
+    char buffer[4096];
+    for (ssize_t n; (n = ::read(reader, buffer, sizeof(buffer))) > 0;) {
+      received.append(buffer, static_cast<std::size_t>(n));
+    }
+  });
+  const Log log = LongLog(1);  // more than a pipe holds: needs the reader
+  const std::string error = WriteLog(path, log);
+  ::close(spare);
+  read_all.join();
+  ::close(reader);
+  EXPECT_EQ(error, "");
+  std::istringstream in(received);
+  const ReadResult read = ParseLog(in, path, {});
+  ASSERT_TRUE(read.log.has_value()) << read.error;
+  EXPECT_TRUE(SameLog(*read.log, log));
+  EXPECT_TRUE(fs::is_fifo(fs::symlink_status(path)));
+  EXPECT_EQ(Entries(dir_), std::vector<std::string>{"pipe"});
+}
+
+TEST_F(LogFileTest, WriteToDashWritesStandardOutput) {
+  ::testing::internal::CaptureStdout();
+  const std::string error = WriteLog("-", SmallLog());
+  EXPECT_EQ(::testing::internal::GetCapturedStdout(), kSmallLogText);
+  EXPECT_EQ(error, "");
+  EXPECT_FALSE(fs::exists("-"));
+}
+
+TEST_F(LogFileTest, WriteToDevStdoutWritesInPlaceAndKeepsTheLink) {
+  if (!fs::is_symlink(fs::symlink_status("/dev/stdout"))) GTEST_SKIP() << "no /dev/stdout link";
+  const fs::path link = fs::read_symlink("/dev/stdout");
+  ::testing::internal::CaptureStdout();  // stdout becomes a regular file
+  const std::string error = WriteLog("/dev/stdout", SmallLog());
+  EXPECT_EQ(::testing::internal::GetCapturedStdout(), kSmallLogText);
+  EXPECT_EQ(error, "");
+  EXPECT_TRUE(fs::is_symlink(fs::symlink_status("/dev/stdout")));
+  std::error_code ec;
+  EXPECT_EQ(fs::read_symlink("/dev/stdout", ec), link);
 }
 
 }  // namespace

@@ -614,7 +614,10 @@ TEST_F(PneumoBinaryTest, RolloutWritesTheOutput) {
                    " --out " + Quote(Path("out.csv")));
   ASSERT_EQ(run.exit_code, 0) << run.err;
   ASSERT_TRUE(fs::exists(Path("out.csv")));
-  EXPECT_FALSE(fs::exists(Path("out.csv.tmp")));
+  // no temporary left beside the output
+  for (const auto& entry : fs::directory_iterator(dir_)) {
+    EXPECT_NE(entry.path().filename().string()[0], '.') << entry.path();
+  }
   log::ReadResult read = log::ReadLog(Path("out.csv"), {});
   ASSERT_TRUE(read.log) << read.error;
   const log::Log& out = *read.log;
@@ -626,6 +629,28 @@ TEST_F(PneumoBinaryTest, RolloutWritesTheOutput) {
   EXPECT_GT(Column(out, "p_P")[3], 1e5);
   EXPECT_EQ(Column(out, "p_S")[4], 3e5);
   EXPECT_THAT(run.err, HasSubstr("wrote"));
+}
+
+TEST_F(PneumoBinaryTest, RolloutToDevFullFailsAndKeepsTheDevice) {
+  if (!fs::is_character_file("/dev/full")) GTEST_SKIP() << "no /dev/full";
+  WriteText(Path("in.csv"), kOnOffLog);
+  Outcome run = Pneumo("rollout " + Quote(ShippedModel("rig_onoff.xml")) + " --commands " +
+                       Quote(Path("in.csv")) + " --out /dev/full");
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_EQ(run.err, "pneumo: /dev/full: writing failed: No space left on device\n");
+  EXPECT_TRUE(fs::is_character_file(fs::symlink_status("/dev/full")));
+}
+
+TEST_F(PneumoBinaryTest, RolloutToDashWritesTheLogToStandardOutput) {
+  WriteText(Path("in.csv"), kOnOffLog);
+  Outcome run = Pneumo("rollout " + Quote(ShippedModel("rig_onoff.xml")) + " --commands " +
+                       Quote(Path("in.csv")) + " --out -");
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  std::istringstream in(run.out);
+  log::ReadResult read = log::ParseLog(in, "stdout", {});
+  ASSERT_TRUE(read.log) << read.error;
+  EXPECT_EQ(read.log->time, (std::vector<double>{0, 0.001, 0.002, 0.003, 0.004}));
+  EXPECT_FALSE(fs::exists("-"));
 }
 
 TEST_F(PneumoBinaryTest, RolloutOfItsOwnOutputFileIsIdentical) {
