@@ -30,6 +30,7 @@ using ::testing::HasSubstr;
 
 constexpr char kTemplate[] = R"(
 <mujoco model="config_test">
+  <size nuser_actuator="128"/>
   <option timestep="0.00025" integrator="$INTEGRATOR" gravity="0 0 0"/>
   <worldbody>
     <body name="piston">
@@ -367,7 +368,8 @@ bool ParseRange(const std::string& valid, Bound* low, Bound* high) {
 bool RigFor(const std::string& scope, Rig* rig) {
   size_t comma = scope.find(", ");
   std::string applies = comma == std::string::npos ? "" : scope.substr(comma + 2);
-  if (applies.empty() || applies == "valve=onoff" || applies == "flow=iso6358") *rig = OnOff();
+  if (applies.empty() || applies == "valve=onoff" || applies == "flow=iso6358" ||
+      applies == "flow=iso6358 or flow=sanville") *rig = OnOff();
   else if (applies == "valve=onoff with input=pwm") *rig = Pwm();
   else if (applies == "valve=proportional_5_3" || applies == "flow=sanville or flow=thin_plate") *rig = Proportional();
   else if (applies == "valve=proportional_per_chamber" || applies == "flow=thin_plate") *rig = PerChamber();
@@ -433,7 +435,7 @@ TEST_F(ConfigTest, RejectsBadEnumerationValue) {
   ExpectKeyRejected(OnOff().Set("N.flow", "laminar"), "N.flow", "not one of");
   ExpectKeyRejected(OnOff().Set("input", "duty"), "input", "not one of: valves pwm");
   ExpectKeyRejected(OnOff().Set("pressure_model", "ideal"), "P.pressure_model", "not one of: physical identified");
-  ExpectKeyRejected(OnOff().Set("step", "rk4"), "step", "not one of: exact explicit");
+  ExpectKeyRejected(OnOff().Set("step", "rk4"), "step", "not one of: linearized exact explicit");
 }
 
 TEST_F(ConfigTest, RejectsMissingValve) {
@@ -717,11 +719,12 @@ TEST_F(ConfigTest, RejectsNullModel) {
 }
 
 TEST_F(ConfigTest, AttachesModelWithoutPneumaticText) {
-  // neither the cylinder-looking actuators nor RK4 matter without a "pneumatic:" element
+  // neither the cylinder-looking actuators nor RK4 matter without a "pneumatic:" element: Attach
+  // succeeds and stores nothing, so the model stays an ordinary one
   for (const Rig& rig : {OnOff().TextName(""), OnOff().TextName("other:cyl"), OnOff().TextName("").Integrator("RK4")}) {
     AttachedModel model;
     ASSERT_TRUE(model.Load(rig.Xml())) << model.error();
-    EXPECT_TRUE(IsAttached(model.m()));
+    EXPECT_FALSE(IsAttached(model.m()));
     EXPECT_TRUE(Cylinders(model.m()).empty());
   }
 }
@@ -765,7 +768,9 @@ mjtNum TestGain(const mjModel*, const mjData*, int id) {
   return 3.0;
 }
 
-TEST_F(ConfigTest, ChainsPreviousGainCallbackForNonPneumaticActuators) {
+TEST_F(ConfigTest, LeavesTheGainCallbackToNonPneumaticActuators) {
+  // chamber gains are fixed in the model (+A_P, -A_N), so the extension never takes mjcb_act_gain:
+  // a callback installed before serves the model's other user-gain actuators, and only them
   const mjfAct original = mjcb_act_gain;
   mjcb_act_gain = TestGain;
   gain_calls.clear();
@@ -775,7 +780,7 @@ TEST_F(ConfigTest, ChainsPreviousGainCallbackForNonPneumaticActuators) {
     <general name="motor" joint="y" gaintype="user"/>)" + OnOffValves() + Chambers());
     AttachedModel model;
     ASSERT_TRUE(model.Load(rig.Xml())) << model.error();
-    EXPECT_NE(mjcb_act_gain, TestGain);  // the extension dispatches now
+    EXPECT_EQ(mjcb_act_gain, TestGain);
     gain_calls.clear();  // the compiler's own forward pass ran before Attach
     int motor = model.actuator("motor");
     ASSERT_GE(motor, 0);
@@ -784,10 +789,12 @@ TEST_F(ConfigTest, ChainsPreviousGainCallbackForNonPneumaticActuators) {
     EXPECT_DOUBLE_EQ(model.d()->actuator_force[motor], 6.0);  // gain 3 from TestGain times ctrl 2
     ASSERT_FALSE(gain_calls.empty());
     for (int id : gain_calls) EXPECT_EQ(id, motor) << "a pneumatic actuator was forwarded to the previous callback";
-  }  // detached
+    // the chambers' fixed gains are their areas (rig A: 1.814e-4 m^2 on both sides)
+    EXPECT_EQ(model.m()->actuator_gaintype[model.actuator("cyl.P")], mjGAIN_FIXED);
+    EXPECT_DOUBLE_EQ(model.m()->actuator_gainprm[mjNGAIN * model.actuator("cyl.P")], 1.814e-4);
+    EXPECT_DOUBLE_EQ(model.m()->actuator_gainprm[mjNGAIN * model.actuator("cyl.N")], -1.814e-4);
+  }
   EXPECT_EQ(mjcb_act_gain, TestGain);
-  EXPECT_EQ(mjcb_act_dyn, nullptr);
-  EXPECT_EQ(mjcb_act_bias, nullptr);
   mjcb_act_gain = original;
 }
 

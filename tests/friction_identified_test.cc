@@ -56,7 +56,7 @@ TEST_F(SealFriction, BreaksAwayAboveTheStaticLevel) {
 
 // rig C with both chambers on the identified model; the piston is fixed (a 1e6 kg load) so v' = 0
 std::string IdentifiedRig() {
-  return R"(<mujoco><option timestep="0.001" gravity="0 0 0"/>
+  return R"(<mujoco><size nuser_actuator="128"/><option timestep="0.001" gravity="0 0 0"/>
     <worldbody><body><inertial pos="0 0 0" mass="1e6" diaginertia="1 1 1"/>
       <joint name="x" type="slide" axis="1 0 0"/></body></worldbody>
     <actuator>

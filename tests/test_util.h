@@ -78,7 +78,7 @@ inline std::string ShippedModel(const std::string& file) { return std::string(PN
 
 // rig A with its valves driven by one duty command at `frequency` (0: the averaged model)
 inline std::string RigAOnPwm(double frequency) {
-  return R"(<mujoco><option timestep="0.00025" gravity="0 0 0"/>
+  return R"(<mujoco><size nuser_actuator="128"/><option timestep="0.00025" gravity="0 0 0"/>
     <worldbody><body><inertial pos="0 0 0" mass="0.9" diaginertia="1e-4 1e-4 1e-4"/>
       <joint name="x" type="slide" axis="1 0 0" limited="true" range="-0.05 0.05" damping="50"/></body></worldbody>
     <actuator>

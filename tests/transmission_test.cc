@@ -31,7 +31,7 @@ std::string Cylinder(const std::string& target, const std::string& config) {
 
 // a forearm on an elbow hinge about z, no gravity, damping near critical for these cylinders
 std::string Arm(const std::string& sites, const std::string& cylinder) {
-  return R"(<mujoco><option timestep="0.0002" gravity="0 0 0"/><worldbody>
+  return R"(<mujoco><size nuser_actuator="128"/><option timestep="0.0002" gravity="0 0 0"/><worldbody>
     <site name="base" pos="0 -0.1 0"/>
     <body name="forearm"><joint name="elbow" type="hinge" axis="0 0 1" damping="0.5"/>
       <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" mass="0.5"/>)" +

@@ -17,7 +17,9 @@ struct ChamberModel {
   double work_factor = 1.0;       // alpha
   double gas_rt = 0;              // r T, J/kg
   double p_supply = 0, p_exhaust = 0;  // Pa abs
-  double tolerance = 0;           // Pa, local error allowed per substep
+  double p_atm = 0;                    // Pa abs, outside the cylinder
+  double atmosphere_leak = 0;          // kg/(s Pa): laminar leak G (p - p_atm) out of the chamber
+  double tolerance = 0;                // Pa, local error allowed per substep
 };
 
 ChamberModel MakeChamberModel(const CylinderConfig& c, int chamber);
@@ -37,14 +39,18 @@ struct VolumePath {
   double RateAt(double tau) const;
 };
 
-// net mass flow into the chamber (kg/s) at pressure p (Pa abs), paper 000 eq. (2)
+// net mass flow into the chamber (kg/s) through its valve ports at pressure p (Pa abs), paper 000 eq. (2)
 double ChamberMassFlow(const ChamberModel& k, const PortOpenings& o, double p);
 
-// dp/dt (Pa/s) of the physical model:
+// ChamberMassFlow plus the laminar leaks (the project's own form): to the atmosphere,
+// G_atm (p_atm - p), and across the piston from the other chamber, G_piston (p_other - p)
+double NetMassFlow(const ChamberModel& k, const PortOpenings& o, double p, double piston_leak, double p_other);
+
+// dp/dt (Pa/s) of the physical model, with Q the NetMassFlow:
 //   dp/dt = n r T Q / V - alpha n p (dV/dt) / V
 // paper 000 eq. (4a) (alpha = 1), paper 001 eq. (1) (n = gamma), paper 002 eq. (1) (n = k)
 double PressureRate(const ChamberModel& k, const PortOpenings& o, double p, double volume,
-                    double volume_rate);
+                    double volume_rate, double piston_leak = 0, double p_other = 0);
 
 // Pressure (Pa abs) at the end of a step of length h from p0, for the physical
 // model. Written for y = p V^(alpha n), the polytropic compression is exact and
@@ -54,8 +60,26 @@ double PressureRate(const ChamberModel& k, const PortOpenings& o, double p, doub
 // Richardson extrapolation; the substep adapts to `tolerance`, and splits at
 // the instants where valves switch. The result lies in the reachable range
 // [min(p_exhaust, p_compressed), max(p_supply, p_compressed)].
+// The leak across the piston (kg/(s Pa)) is integrated with the other chamber held at
+// p_other; the linearized step below couples the two chambers instead.
 double PhysicalPressureStep(const ChamberModel& k, const PortSchedule& ports, const VolumePath& volume,
-                            double p0, double h);
+                            double p0, double h, double piston_leak = 0, double p_other = 0);
+
+// Pressures (Pa abs) of both chambers of a cylinder (0 = P, 1 = N) at the end of a step
+// of length h from p0: the default step. Each port's flow is written in conductance form,
+// Q = G(p) (p_port - p) with G the chord of the flow law between p and p_port (the
+// project's own form), so that with G frozen the flow is linear in p and every leak
+// couples in: dp/dt = B p + f. Over a substep the polytropic compression is exact
+// (Strang split: half the volume change, the flow, the other half), and the linear
+// flow part is solved exactly, p + s phi1(B s) (B p + f): the exponential step of
+// paper 000 eq. (7), p' = (s - p) r, with s and r from the chords. A second-order
+// correction s phi2(B s) N (ETD2RK) adds the rate N the frozen conductances miss at
+// the substep's end; its size is the local error estimate, and a substep whose
+// estimate exceeds k.tolerance is split (the adaptive fallback). Substeps end at
+// valve switching instants, and valve openings are taken at each substep's middle.
+// The result lies in the reachable range. Returns the number of substeps tried.
+int LinearizedPressureStep(const ChamberModel k[2], const PortSchedule* ports[2], const VolumePath volume[2],
+                           double piston_leak, const double p0[2], double h, double p1[2]);
 
 // paper 000 eq. (10): steady-state pressure s (Pa abs) and rate r (1/s) at
 // command u (V), volume sensor v = x and its rate

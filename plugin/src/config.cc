@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <map>
+#include <set>
 #include <sstream>
 #include <vector>
 
@@ -22,6 +23,7 @@ enum class AppliesTo {
   kProportional53,   // valve=proportional_5_3
   kPerChamber,       // valve=proportional_per_chamber
   kIso6358,          // flow=iso6358
+  kEllipticLaw,      // flow=iso6358 or sanville
   kAreaLaw,          // flow=sanville or thin_plate
   kOnOffAreaLaw,     // valve=onoff with flow=sanville or thin_plate
   kThinPlate,        // flow=thin_plate
@@ -40,105 +42,119 @@ struct Param {
   double min, max;            // valid range for numbers
   bool min_open, max_open;    // true: the bound itself is excluded
   const char* meaning;
+  // the value in a configuration (k: chamber); nullptr for choices and coulomb_friction
+  double& (*field)(CylinderConfig& c, int k);
 };
 
-constexpr double kInf = INFINITY;
+// accessors of a row's value in a configuration; k is the chamber (0 = P, 1 = N) for chamber keys
+#define CYL(field) [](CylinderConfig& c, int) -> double& { return c.field; }
+#define CHAMBER(field) [](CylinderConfig& c, int k) -> double& { return c.chamber[k].field; }
+#define IDENTIFIED(field) [](CylinderConfig& c, int k) -> double& { return c.chamber[k].identified.field; }
 
-// every key of the MJCF configuration
+// every key of the MJCF configuration. Ranges are what is physically plausible, so that a
+// mistyped exponent is refused here rather than diverging at the first step.
 const Param kParams[] = {
     // cylinder
     {"valve", Scope::kCylinder, AppliesTo::kAll, "", nullptr, "onoff proportional_5_3 proportional_per_chamber", 0, 0, false, false,
-     "valve arrangement: four on/off valves (paper 002), one 5/3 proportional valve (paper 001), or one proportional valve per chamber (paper 000)"},
+     "valve arrangement: four on/off valves (paper 002), one 5/3 proportional valve (paper 001), or one proportional valve per chamber (paper 000)", nullptr},
     {"input", Scope::kCylinder, AppliesTo::kOnOff, "", "valves", "valves pwm", 0, 0, false, false,
-     "on/off valves commanded one by one (u1..u4) or by one duty in [-1, 1] (paper 003 eqs. 12-13)"},
-    {"stroke", Scope::kCylinder, AppliesTo::kAll, "m (rad)", nullptr, nullptr, 0, kInf, true, true,
-     "stroke length l; x in [-l/2, l/2]"},
-    {"x_mid", Scope::kCylinder, AppliesTo::kAll, "m (rad)", "0", nullptr, -kInf, kInf, true, true,
-     "actuator length at mid-stroke, so x = actuator_length - x_mid"},
-    {"p_supply", Scope::kCylinder, AppliesTo::kAll, "Pa abs", "600000", nullptr, 0, kInf, true, true,
-     "supply (compressor) pressure"},
-    {"p_exhaust", Scope::kCylinder, AppliesTo::kAll, "Pa abs", "101325", nullptr, 0, kInf, true, true,
-     "exhaust pressure; must be below p_supply"},
-    {"p_atm", Scope::kCylinder, AppliesTo::kAll, "Pa abs", "p_exhaust", nullptr, 0, kInf, false, true,
-     "ambient pressure on the outer piston faces; the activations are p - p_atm"},
-    {"temperature", Scope::kCylinder, AppliesTo::kAll, "K", "293.15", nullptr, 0, kInf, true, true,
-     "gas temperature T, the same in supply, chambers and exhaust"},
-    {"gas_constant", Scope::kCylinder, AppliesTo::kAll, "J/(kg K)", "287", nullptr, 0, kInf, true, true,
-     "specific gas constant r of the gas (R/M)"},
-    {"heat_capacity_ratio", Scope::kCylinder, AppliesTo::kAreaLaw, "", "1.4", nullptr, 1, 3, true, false,
-     "ratio of specific heats gamma (kappa) in the sanville and thin-plate flow laws"},
-    {"compressibility", Scope::kCylinder, AppliesTo::kThinPlate, "", "1", nullptr, 0, 2, true, false,
-     "compressibility factor Z of the thin-plate law (paper 000 Table II: 0.99)"},
-    {"spool_gain", Scope::kCylinder, AppliesTo::kProportional53, "m/V", "0.00025", nullptr, 0, kInf, true, true,
-     "spool position gain k_v (paper 001 Table I)"},
+     "on/off valves commanded one by one (u1..u4) or by one duty in [-1, 1] (paper 003 eqs. 12-13)", nullptr},
+    {"stroke", Scope::kCylinder, AppliesTo::kAll, "m (rad)", nullptr, nullptr, 0, 10, true, false,
+     "stroke length l; x in [-l/2, l/2]", CYL(stroke)},
+    {"x_mid", Scope::kCylinder, AppliesTo::kAll, "m (rad)", "0", nullptr, -100, 100, false, false,
+     "actuator length at mid-stroke, so x = actuator_length - x_mid", CYL(x_mid)},
+    {"p_supply", Scope::kCylinder, AppliesTo::kAll, "Pa abs", "600000", nullptr, 0, 1e8, true, false,
+     "supply (compressor) pressure", CYL(p_supply)},
+    {"p_exhaust", Scope::kCylinder, AppliesTo::kAll, "Pa abs", "101325", nullptr, 0, 1e8, true, false,
+     "exhaust pressure; must be below p_supply", CYL(p_exhaust)},
+    {"p_atm", Scope::kCylinder, AppliesTo::kAll, "Pa abs", "p_exhaust", nullptr, 0, 1e8, false, false,
+     "ambient pressure on the outer piston faces; the activations are p - p_atm", CYL(p_atm)},
+    {"temperature", Scope::kCylinder, AppliesTo::kAll, "K", "293.15", nullptr, 150, 1500, false, false,
+     "gas temperature T, the same in supply, chambers and exhaust", CYL(temperature)},
+    {"gas_constant", Scope::kCylinder, AppliesTo::kAll, "J/(kg K)", "287", nullptr, 50, 5000, false, false,
+     "specific gas constant r of the gas (R/M): 287 for air, 2077 for helium", CYL(gas_constant)},
+    {"heat_capacity_ratio", Scope::kCylinder, AppliesTo::kAreaLaw, "", "1.4", nullptr, 1, 1.7, true, false,
+     "ratio of specific heats gamma (kappa) in the sanville and thin-plate flow laws", CYL(heat_capacity_ratio)},
+    {"compressibility", Scope::kCylinder, AppliesTo::kThinPlate, "", "1", nullptr, 0.5, 1.5, false, false,
+     "compressibility factor Z of the thin-plate law (paper 000 Table II: 0.99)", CYL(compressibility)},
+    {"spool_gain", Scope::kCylinder, AppliesTo::kProportional53, "m/V", "0.00025", nullptr, 0, 0.01, true, false,
+     "spool position gain k_v (paper 001 Table I)", CYL(spool_gain)},
     {"spool_time_constant", Scope::kCylinder, AppliesTo::kProportional53, "s", "0.0042", nullptr, 0, 1, false, false,
-     "spool first-order lag tau_v (paper 001 eq. 1); 0 = no lag"},
-    {"u_max", Scope::kCylinder, AppliesTo::kProportional53, "V", "5", nullptr, 0, kInf, true, true,
-     "command saturation: the spool is driven by clip(u, -u_max, u_max)"},
-    {"orifice_gradient", Scope::kCylinder, AppliesTo::kProportional53, "m^2/m", "0.0226", nullptr, 0, kInf, true, true,
-     "orifice area per spool displacement w (paper 001 Table I: 22.6 mm^2/mm)"},
+     "spool first-order lag tau_v (paper 001 eq. 1); 0 = no lag", CYL(spool_time_constant)},
+    {"u_max", Scope::kCylinder, AppliesTo::kProportional53, "V", "5", nullptr, 0, 100, true, false,
+     "command saturation: the spool is driven by clip(u, -u_max, u_max)", CYL(u_max)},
+    {"orifice_gradient", Scope::kCylinder, AppliesTo::kProportional53, "m^2/m", "0.0226", nullptr, 0, 1, true, false,
+     "orifice area per spool displacement w (paper 001 Table I: 22.6 mm^2/mm)", CYL(orifice_gradient)},
     {"deadband", Scope::kCylinder, AppliesTo::kProportional53, "", "0", nullptr, 0, 1, false, true,
-     "flow deadband as a fraction of the full spool range 2 k_v u_max (paper 001: 0.12)"},
-    {"delay_open", Scope::kCylinder, AppliesTo::kOnOff, "s", "0", nullptr, 0, 1, false, false,
-     "opening delay of each on/off valve (paper 002: 1.3e-3)"},
-    {"delay_close", Scope::kCylinder, AppliesTo::kOnOff, "s", "0", nullptr, 0, 1, false, false,
-     "closing delay of each on/off valve (paper 002: 0.2e-3)"},
-    {"pwm_frequency", Scope::kCylinder, AppliesTo::kPwm, "Hz", "0", nullptr, 0, kInf, false, true,
-     "PWM carrier frequency; 0 = the averaged model of paper 003 eq. 14"},
-    {"coulomb_friction", Scope::kCylinder, AppliesTo::kAll, "N (N m)", "none", nullptr, 0, kInf, false, true,
-     "sliding seal friction; static friction is the transmission's frictionloss (needs actuator <name>.friction)"},
-    {"stribeck_velocity", Scope::kCylinder, AppliesTo::kFriction, "m/s (rad/s)", "0.01", nullptr, 0, kInf, true, true,
-     "v_s of the Stribeck curve: friction falls from the static to the Coulomb level over this speed"},
-    {"step", Scope::kCylinder, AppliesTo::kAll, "", "exact", "exact explicit", 0, 0, false, false,
-     "chamber integration inside a MuJoCo step: adaptive implicit (exact) or plain explicit Euler (comparison only)"},
+     "flow deadband as a fraction of the full spool range 2 k_v u_max (paper 001: 0.12)", CYL(deadband)},
+    {"delay_open", Scope::kCylinder, AppliesTo::kOnOff, "s", "0", nullptr, 0, 0.1, false, false,
+     "opening delay of each on/off valve (paper 002: 1.3e-3); the armature model that realises it is the project's own", CYL(delay_open)},
+    {"delay_close", Scope::kCylinder, AppliesTo::kOnOff, "s", "0", nullptr, 0, 0.1, false, false,
+     "closing delay of each on/off valve (paper 002: 0.2e-3); the armature model that realises it is the project's own", CYL(delay_close)},
+    {"pwm_frequency", Scope::kCylinder, AppliesTo::kPwm, "Hz", "0", nullptr, 0, 1e5, false, false,
+     "PWM carrier frequency; 0 = the averaged model of paper 003 eq. 14", CYL(pwm_frequency)},
+    {"coulomb_friction", Scope::kCylinder, AppliesTo::kAll, "N (N m)", "none", nullptr, 0, 1e6, false, false,
+     "sliding seal friction; static friction is the transmission's frictionloss (needs actuator <name>.friction)", nullptr},
+    {"stribeck_velocity", Scope::kCylinder, AppliesTo::kFriction, "m/s (rad/s)", "0.01", nullptr, 0, 10, true, false,
+     "v_s of the project's own Stribeck curve: friction falls from the static to the Coulomb level over this speed", CYL(stribeck_velocity)},
+    {"piston_leak_conductance", Scope::kCylinder, AppliesTo::kAll, "kg/(s Pa)", "0", nullptr, 0, 1e-6, false, false,
+     "laminar leakage across the piston seal, mass flow G (p_P - p_N) from P to N (the project's own form)", CYL(piston_leak_conductance)},
+    {"step", Scope::kCylinder, AppliesTo::kAll, "", "linearized", "linearized exact explicit", 0, 0, false, false,
+     "chamber integration inside a MuJoCo step: linearized exponential with an adaptive fallback (default), always adaptive implicit (exact), or plain explicit Euler (comparison only)", nullptr},
     {"step_tolerance", Scope::kCylinder, AppliesTo::kAll, "", "1e-4", nullptr, 0, 0.1, true, false,
-     "local error per substep of the exact step, as a fraction of p_supply - p_exhaust"},
+     "local error allowed per step (linearized) or substep (exact), as a fraction of p_supply - p_exhaust", CYL(step_tolerance)},
     // chamber (key applies to both chambers; P.key or N.key to one)
-    {"area", Scope::kChamber, AppliesTo::kAll, "m^2 (m^3/rad)", nullptr, nullptr, 0, kInf, true, true,
-     "piston area on this side (cap side P, rod side N); displacement per radian for a rotary cylinder"},
-    {"dead_volume", Scope::kChamber, AppliesTo::kAll, "m^3", nullptr, nullptr, 0, kInf, true, true,
-     "chamber volume at the end of its stroke, ports and tube included"},
-    {"polytropic_index", Scope::kChamber, AppliesTo::kAll, "", "1.4", nullptr, 1, 2, false, false,
-     "n: a sealed chamber follows p V^n = const (paper 002: 1.2; adiabatic air: 1.4)"},
+    {"area", Scope::kChamber, AppliesTo::kAll, "m^2 (m^3/rad)", nullptr, nullptr, 0, 1, true, false,
+     "piston area on this side (cap side P, rod side N); displacement per radian for a rotary cylinder", CHAMBER(area)},
+    {"dead_volume", Scope::kChamber, AppliesTo::kAll, "m^3", nullptr, nullptr, 0, 1, true, false,
+     "chamber volume at the end of its stroke, ports and tube included", CHAMBER(dead_volume)},
+    {"polytropic_index", Scope::kChamber, AppliesTo::kAll, "", "1.4", nullptr, 1, 1.7, false, false,
+     "n: a sealed chamber follows p V^n = const (paper 002: 1.2; adiabatic air: 1.4)", CHAMBER(polytropic_index)},
     {"work_factor", Scope::kChamber, AppliesTo::kAll, "", "1", nullptr, 0, 2, true, false,
-     "alpha on the piston-work term of paper 001 eq. 1 (0.89 there); 1 elsewhere"},
+     "alpha on the piston-work term of paper 001 eq. 1 (0.89 there); 1 elsewhere", CHAMBER(work_factor)},
+    {"atmosphere_leak_conductance", Scope::kChamber, AppliesTo::kAll, "kg/(s Pa)", "0", nullptr, 0, 1e-6, false, false,
+     "laminar leakage to the atmosphere, mass flow G (p - p_atm) out of the chamber (the project's own form)", CHAMBER(atmosphere_leak_conductance)},
     {"pressure_model", Scope::kChamber, AppliesTo::kAll, "", "physical", "physical identified", 0, 0, false, false,
-     "physical flow and chamber model, or the identified model of paper 000 eq. 10"},
+     "physical flow and chamber model, or the identified model of paper 000 eq. 10", nullptr},
     {"flow", Scope::kChamber, AppliesTo::kAll, "", "derived", "iso6358 sanville thin_plate", 0, 0, false, false,
-     "port flow law; default iso6358 (onoff), sanville (5/3), thin_plate (per chamber)"},
+     "port flow law; default iso6358 (onoff), sanville (5/3), thin_plate (per chamber)", nullptr},
     {"discharge_coefficient", Scope::kChamber, AppliesTo::kAreaLaw, "", "0.72", nullptr, 0, 1, true, false,
-     "C_d (sanville, paper 001: 0.7) or C (thin plate, paper 000: 0.72)"},
-    {"critical_ratio", Scope::kChamber, AppliesTo::kAll, "", "derived", nullptr, 0, 1, false, true,
-     "critical pressure ratio b: default 0.433 for iso6358 (paper 002), 0.2 for sanville (paper 001); unused by thin_plate"},
-    {"sonic_conductance", Scope::kChamber, AppliesTo::kIso6358, "kg/(s Pa)", "3.4e-9", nullptr, 0, kInf, true, true,
-     "C_val = C rho0 of one open on/off valve (paper 002 eq. 4)"},
-    {"port_area", Scope::kChamber, AppliesTo::kOnOffAreaLaw, "m^2", nullptr, nullptr, 0, kInf, true, true,
-     "orifice area of one open on/off valve, for the sanville and thin-plate laws"},
-    {"area_gain", Scope::kChamber, AppliesTo::kPerChamber, "m^2/V", "2e-6", nullptr, 0, kInf, true, true,
-     "B of paper 000 eq. 3"},
-    {"u_supply_seal", Scope::kChamber, AppliesTo::kPerChamber, "V", "5.3", nullptr, -kInf, kInf, true, true,
-     "U_c: voltage at which the supply port seals (paper 000 eq. 3a)"},
-    {"u_exhaust_seal", Scope::kChamber, AppliesTo::kPerChamber, "V", "4.7", nullptr, -kInf, kInf, true, true,
-     "U_r: voltage at which the exhaust port seals (paper 000 eq. 3b)"},
-    {"leak_area_supply", Scope::kChamber, AppliesTo::kPerChamber, "m^2", "5e-8", nullptr, 0, kInf, false, true,
-     "L_c: leakage area of the sealed supply port"},
-    {"leak_area_exhaust", Scope::kChamber, AppliesTo::kPerChamber, "m^2", "5e-8", nullptr, 0, kInf, false, true,
-     "L_r: leakage area of the sealed exhaust port"},
-    {"area_smoothing", Scope::kChamber, AppliesTo::kPerChamber, "m^2", "1e-6", nullptr, 0, kInf, true, true,
-     "area unit inside smax of eq. 3 (the paper's mm^2)"},
-    {"c1", Scope::kChamber, AppliesTo::kIdentified, "V", nullptr, nullptr, -kInf, kInf, true, true, "valve-voltage origin (paper 000 Table I)"},
-    {"c2", Scope::kChamber, AppliesTo::kIdentified, "1/V", nullptr, nullptr, -kInf, kInf, true, true, "valve-voltage scale"},
-    {"c3", Scope::kChamber, AppliesTo::kIdentified, "1/V^3", nullptr, nullptr, -1, kInf, true, true, "kink factor, > -1"},
-    {"c4", Scope::kChamber, AppliesTo::kIdentified, "Pa s/m", nullptr, nullptr, -kInf, kInf, true, true, "ds/dv'"},
-    {"c5", Scope::kChamber, AppliesTo::kIdentified, "1/m", nullptr, nullptr, -kInf, kInf, true, true, "dr/dv'"},
-    {"c6", Scope::kChamber, AppliesTo::kIdentified, "1/m", nullptr, nullptr, -kInf, kInf, true, true, "volume-sensor scale; 1 + c6 x > 0 over the stroke"},
-    {"c7", Scope::kChamber, AppliesTo::kIdentified, "1/(V s)", nullptr, nullptr, 0, kInf, true, true, "rate gain (B of eq. 3), > 0"},
-    {"c8", Scope::kChamber, AppliesTo::kIdentified, "", nullptr, nullptr, -1, 1, true, true, "rate asymmetry, in (-1, 1)"},
-    {"c9", Scope::kChamber, AppliesTo::kIdentified, "V", nullptr, nullptr, 0, kInf, true, true, "leakage, > 0"},
-    {"c_gamma", Scope::kChamber, AppliesTo::kIdentified, "V", "0.1", nullptr, 0, kInf, true, true, "voltage range of the leaky regime"},
-    {"c_b", Scope::kChamber, AppliesTo::kIdentified, "Pa abs", "(p_supply+p_exhaust)/2", nullptr, -kInf, kInf, true, true, "pressure bias of s"},
-    {"c_s", Scope::kChamber, AppliesTo::kIdentified, "Pa", "(p_supply-p_exhaust)/2", nullptr, 0, kInf, true, true, "pressure scale of s"},
+     "C_d (sanville, paper 001: 0.7) or C (thin plate, paper 000: 0.72)", CHAMBER(discharge_coefficient)},
+    {"critical_ratio", Scope::kChamber, AppliesTo::kEllipticLaw, "", "derived", nullptr, 0, 1, false, true,
+     "critical pressure ratio b: default 0.433 for iso6358 (paper 002), 0.2 for sanville (paper 001)", CHAMBER(critical_ratio)},
+    {"sonic_conductance", Scope::kChamber, AppliesTo::kIso6358, "kg/(s Pa)", "3.4e-9", nullptr, 0, 1e-5, true, false,
+     "C_val = C rho0 of one open on/off valve (paper 002 eq. 4)", CHAMBER(sonic_conductance)},
+    {"port_area", Scope::kChamber, AppliesTo::kOnOffAreaLaw, "m^2", nullptr, nullptr, 0, 0.01, true, false,
+     "orifice area of one open on/off valve, for the sanville and thin-plate laws", CHAMBER(port_area)},
+    {"area_gain", Scope::kChamber, AppliesTo::kPerChamber, "m^2/V", "2e-6", nullptr, 0, 1e-3, true, false,
+     "B of paper 000 eq. 3", CHAMBER(area_gain)},
+    {"u_supply_seal", Scope::kChamber, AppliesTo::kPerChamber, "V", "5.3", nullptr, -100, 100, false, false,
+     "U_c: voltage at which the supply port seals (paper 000 eq. 3a)", CHAMBER(u_supply_seal)},
+    {"u_exhaust_seal", Scope::kChamber, AppliesTo::kPerChamber, "V", "4.7", nullptr, -100, 100, false, false,
+     "U_r: voltage at which the exhaust port seals (paper 000 eq. 3b)", CHAMBER(u_exhaust_seal)},
+    {"leak_area_supply", Scope::kChamber, AppliesTo::kPerChamber, "m^2", "5e-8", nullptr, 0, 1e-3, false, false,
+     "L_c: leakage area of the sealed supply port", CHAMBER(leak_area_supply)},
+    {"leak_area_exhaust", Scope::kChamber, AppliesTo::kPerChamber, "m^2", "5e-8", nullptr, 0, 1e-3, false, false,
+     "L_r: leakage area of the sealed exhaust port", CHAMBER(leak_area_exhaust)},
+    {"area_smoothing", Scope::kChamber, AppliesTo::kPerChamber, "m^2", "1e-6", nullptr, 0, 1e-3, true, false,
+     "area unit inside smax of eq. 3 (the paper's mm^2)", CHAMBER(area_smoothing)},
+    {"c1", Scope::kChamber, AppliesTo::kIdentified, "V", nullptr, nullptr, -100, 100, false, false, "valve-voltage origin (paper 000 Table I)", IDENTIFIED(c[1])},
+    {"c2", Scope::kChamber, AppliesTo::kIdentified, "1/V", nullptr, nullptr, -1e3, 1e3, false, false, "valve-voltage scale", IDENTIFIED(c[2])},
+    {"c3", Scope::kChamber, AppliesTo::kIdentified, "1/V^3", nullptr, nullptr, -1, 1e3, true, false, "kink factor, > -1", IDENTIFIED(c[3])},
+    {"c4", Scope::kChamber, AppliesTo::kIdentified, "Pa s/m", nullptr, nullptr, -1e9, 1e9, false, false, "ds/dv'", IDENTIFIED(c[4])},
+    {"c5", Scope::kChamber, AppliesTo::kIdentified, "1/m", nullptr, nullptr, -1e6, 1e6, false, false, "dr/dv'", IDENTIFIED(c[5])},
+    {"c6", Scope::kChamber, AppliesTo::kIdentified, "1/m", nullptr, nullptr, -1e4, 1e4, false, false, "volume-sensor scale; 1 + c6 x > 0 over the stroke", IDENTIFIED(c[6])},
+    {"c7", Scope::kChamber, AppliesTo::kIdentified, "1/(V s)", nullptr, nullptr, 0, 1e6, true, false, "rate gain (B of eq. 3), > 0", IDENTIFIED(c[7])},
+    {"c8", Scope::kChamber, AppliesTo::kIdentified, "", nullptr, nullptr, -1, 1, true, true, "rate asymmetry, in (-1, 1)", IDENTIFIED(c[8])},
+    {"c9", Scope::kChamber, AppliesTo::kIdentified, "V", nullptr, nullptr, 0, 100, true, false, "leakage, > 0", IDENTIFIED(c[9])},
+    {"c_gamma", Scope::kChamber, AppliesTo::kIdentified, "V", "0.1", nullptr, 0, 10, true, false, "voltage range of the leaky regime", IDENTIFIED(c_gamma)},
+    {"c_b", Scope::kChamber, AppliesTo::kIdentified, "Pa abs", "(p_supply+p_exhaust)/2", nullptr, -1e8, 1e8, false, false, "pressure bias of s", IDENTIFIED(c_b)},
+    {"c_s", Scope::kChamber, AppliesTo::kIdentified, "Pa", "(p_supply-p_exhaust)/2", nullptr, 0, 1e8, true, false, "pressure scale of s", IDENTIFIED(c_s)},
 };
+
+#undef CYL
+#undef CHAMBER
+#undef IDENTIFIED
 
 const Param* FindParam(const std::string& key) {
   for (const Param& p : kParams) {
@@ -158,6 +174,14 @@ std::string ValidText(const Param& p) {
   if (p.choices) return p.choices;
   return std::string(p.min_open ? "(" : "[") + FormatBound(p.min) + ", " + FormatBound(p.max) +
          (p.max_open ? ")" : "]");
+}
+
+// the default of a row when it is a number ("1.4"), not "derived", "none" or a formula
+bool LiteralDefault(const Param& p, double* out) {
+  if (!p.default_value) return false;
+  char* end = nullptr;
+  *out = std::strtod(p.default_value, &end);
+  return end != p.default_value && *end == '\0';
 }
 
 // the values given for one cylinder, before defaults
@@ -252,6 +276,7 @@ bool Applies(AppliesTo a, const CylinderConfig& c, const ChamberConfig* k) {
     case AppliesTo::kProportional53: return c.valve == ValveKind::kProportional53;
     case AppliesTo::kPerChamber: return c.valve == ValveKind::kProportionalPerChamber;
     case AppliesTo::kIso6358: return k && k->flow == FlowLaw::kIso6358;
+    case AppliesTo::kEllipticLaw: return k && k->flow != FlowLaw::kThinPlate;
     case AppliesTo::kAreaLaw:
       if (!k) return c.chamber[0].flow != FlowLaw::kIso6358 || c.chamber[1].flow != FlowLaw::kIso6358;
       return area_law;
@@ -272,6 +297,7 @@ const char* AppliesText(AppliesTo a) {
     case AppliesTo::kProportional53: return "valve=proportional_5_3";
     case AppliesTo::kPerChamber: return "valve=proportional_per_chamber";
     case AppliesTo::kIso6358: return "flow=iso6358";
+    case AppliesTo::kEllipticLaw: return "flow=iso6358 or flow=sanville";
     case AppliesTo::kAreaLaw: return "flow=sanville or flow=thin_plate";
     case AppliesTo::kOnOffAreaLaw: return "valve=onoff with flow=sanville or thin_plate";
     case AppliesTo::kThinPlate: return "flow=thin_plate";
@@ -364,13 +390,20 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
     }
   }
 
-  // numbers: given value or default, range-checked, stored by key
-  std::map<std::string, double> cylinder_numbers, chamber_numbers[2];
+  // numbers: the table's literal defaults first, for every key, so the struct is fully defined
+  auto chambers_of = [](const Param& p) {
+    return p.scope == Scope::kCylinder ? std::vector<int>{-1} : std::vector<int>{0, 1};
+  };
+  for (const Param& p : kParams) {
+    double v = 0;
+    if (!p.field || !LiteralDefault(p, &v)) continue;
+    for (int k : chambers_of(p)) p.field(c, std::max(k, 0)) = v;
+  }
+  // then the values given, range-checked (k = -1: the cylinder's own value; 0, 1: chamber P's and N's)
+  std::set<std::string> given_keys;
   for (const Param& p : kParams) {
     if (p.choices) continue;
-    // k = -1: the cylinder's own value; k = 0, 1: chamber P's and N's
-    int first = p.scope == Scope::kCylinder ? -1 : 0, last = p.scope == Scope::kCylinder ? -1 : 1;
-    for (int k = first; k <= last; ++k) {
+    for (int k : chambers_of(p)) {
       const auto& values = k < 0 ? raw.cylinder : raw.chamber[k];
       const ChamberConfig* chamber = k < 0 ? nullptr : &c.chamber[k];
       std::string key = prefixed(k, p.key);
@@ -381,62 +414,23 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
       }
       if (!given) {
         if (!p.default_value) return fail(key, std::string("required for ") + AppliesText(p.applies));
-        continue;  // defaults are filled below, where derived ones can see the others
+        continue;
       }
       double v = 0;
       if (!parser.Number(p, key, text_value, &v)) return std::nullopt;
-      (k < 0 ? cylinder_numbers : chamber_numbers[k])[p.key] = v;
+      if (p.field) p.field(c, std::max(k, 0)) = v;
+      if (std::string(p.key) == "coulomb_friction") c.coulomb_friction = v;
+      given_keys.insert(key);
     }
   }
-  auto cyl = [&](const char* key, double fallback) {
-    auto it = cylinder_numbers.find(key);
-    return it == cylinder_numbers.end() ? fallback : it->second;
-  };
-  c.stroke = cyl("stroke", 0);
-  c.x_mid = cyl("x_mid", 0);
-  c.p_supply = cyl("p_supply", 600000);
-  c.p_exhaust = cyl("p_exhaust", 101325);
-  c.p_atm = cyl("p_atm", c.p_exhaust);
-  c.temperature = cyl("temperature", 293.15);
-  c.gas_constant = cyl("gas_constant", 287);
-  c.heat_capacity_ratio = cyl("heat_capacity_ratio", 1.4);
-  c.compressibility = cyl("compressibility", 1.0);
-  c.spool_gain = cyl("spool_gain", 2.5e-4);
-  c.spool_time_constant = cyl("spool_time_constant", 4.2e-3);
-  c.u_max = cyl("u_max", 5);
-  c.orifice_gradient = cyl("orifice_gradient", 0.0226);
-  c.deadband = cyl("deadband", 0);
-  c.delay_open = cyl("delay_open", 0);
-  c.delay_close = cyl("delay_close", 0);
-  c.pwm_frequency = cyl("pwm_frequency", 0);
-  if (c.coulomb_friction) c.coulomb_friction = cyl("coulomb_friction", 0);
-  c.stribeck_velocity = cyl("stribeck_velocity", 0.01);
-  c.step_tolerance = cyl("step_tolerance", 1e-4);
+  // defaults derived from other keys
+  if (!given_keys.count("p_atm")) c.p_atm = c.p_exhaust;
   for (int k = 0; k < 2; ++k) {
     ChamberConfig& ch = c.chamber[k];
-    auto num = [&](const char* key, double fallback) {
-      auto it = chamber_numbers[k].find(key);
-      return it == chamber_numbers[k].end() ? fallback : it->second;
-    };
-    ch.area = num("area", 0);
-    ch.dead_volume = num("dead_volume", 0);
-    ch.polytropic_index = num("polytropic_index", 1.4);
-    ch.work_factor = num("work_factor", 1.0);
-    ch.discharge_coefficient = num("discharge_coefficient", 0.72);
-    ch.critical_ratio = num("critical_ratio", ch.flow == FlowLaw::kSanville ? 0.2 : 0.433);
-    ch.sonic_conductance = num("sonic_conductance", 3.4e-9);
-    ch.port_area = num("port_area", 0);
-    ch.area_gain = num("area_gain", 2e-6);
-    ch.u_supply_seal = num("u_supply_seal", 5.3);
-    ch.u_exhaust_seal = num("u_exhaust_seal", 4.7);
-    ch.leak_area_supply = num("leak_area_supply", 5e-8);
-    ch.leak_area_exhaust = num("leak_area_exhaust", 5e-8);
-    ch.area_smoothing = num("area_smoothing", 1e-6);
-    IdentifiedParams& id = ch.identified;
-    for (int i = 1; i <= 9; ++i) id.c[i] = num(("c" + std::to_string(i)).c_str(), 0);
-    id.c_gamma = num("c_gamma", 0.1);
-    id.c_b = num("c_b", (c.p_supply + c.p_exhaust) / 2);
-    id.c_s = num("c_s", (c.p_supply - c.p_exhaust) / 2);
+    auto given = [&](const char* key) { return given_keys.count(prefixed(k, key)) > 0; };
+    if (!given("critical_ratio")) ch.critical_ratio = ch.flow == FlowLaw::kSanville ? 0.2 : 0.433;
+    if (!given("c_b")) ch.identified.c_b = (c.p_supply + c.p_exhaust) / 2;
+    if (!given("c_s")) ch.identified.c_s = (c.p_supply - c.p_exhaust) / 2;
   }
 
   // relations between keys
@@ -472,11 +466,149 @@ const std::vector<ParameterDoc>& Parameters() {
     for (const Param& p : kParams) {
       std::string scope = p.scope == Scope::kCylinder ? "cylinder" : "chamber";
       if (p.applies != AppliesTo::kAll) scope += std::string(", ") + AppliesText(p.applies);
-      out.push_back({p.key, p.unit, p.default_value ? p.default_value : "required", ValidText(p), scope, p.meaning});
+      ParameterDoc doc{p.key, p.unit, p.default_value ? p.default_value : "required", ValidText(p), scope, p.meaning};
+      doc.is_choice = p.choices != nullptr;
+      doc.min = p.min, doc.max = p.max, doc.min_open = p.min_open, doc.max_open = p.max_open;
+      out.push_back(doc);
     }
     return out;
   }();
   return docs;
+}
+
+namespace {
+
+// the index of a choice row's value in its list of choices
+int ChoiceIndex(const CylinderConfig& c, const std::string& key, int k) {
+  if (key == "valve") return static_cast<int>(c.valve);
+  if (key == "input") return static_cast<int>(c.input);
+  if (key == "step") return static_cast<int>(c.step);
+  if (key == "pressure_model") return static_cast<int>(c.chamber[k].model);
+  return static_cast<int>(c.chamber[k].flow);  // "flow"
+}
+
+void SetChoiceIndex(CylinderConfig* c, const std::string& key, int k, int index) {
+  if (key == "valve") c->valve = static_cast<ValveKind>(index);
+  if (key == "input") c->input = static_cast<CommandInput>(index);
+  if (key == "step") c->step = static_cast<ChamberStep>(index);
+  if (key == "pressure_model") c->chamber[k].model = static_cast<PressureModel>(index);
+  if (key == "flow") c->chamber[k].flow = static_cast<FlowLaw>(index);
+}
+
+std::string ChoiceText(const Param& p, int index) {
+  std::istringstream choices(p.choices);
+  std::string word;
+  for (int i = 0; choices >> word; ++i) {
+    if (i == index) return word;
+  }
+  return "?";
+}
+
+// "key=value" pairs of a configuration, by prefixed key, for the keys that apply to it
+std::map<std::string, std::string> ConfigPairs(const CylinderConfig& config) {
+  CylinderConfig c = config;  // the accessors take a mutable config
+  std::map<std::string, std::string> pairs;
+  for (const Param& p : kParams) {
+    int first = p.scope == Scope::kCylinder ? -1 : 0, last = p.scope == Scope::kCylinder ? -1 : 1;
+    for (int k = first; k <= last; ++k) {
+      if (!Applies(p.applies, c, k < 0 ? nullptr : &c.chamber[k])) continue;
+      std::string key = k < 0 ? p.key : std::string(k == 0 ? "P." : "N.") + p.key;
+      if (p.choices) {
+        pairs[key] = ChoiceText(p, ChoiceIndex(c, p.key, std::max(k, 0)));
+      } else if (p.field) {
+        pairs[key] = FormatNumber(p.field(c, std::max(k, 0)));
+      } else if (c.coulomb_friction) {  // coulomb_friction, when set
+        pairs[key] = FormatNumber(*c.coulomb_friction);
+      }
+    }
+  }
+  return pairs;
+}
+
+std::string JoinPairs(const std::map<std::string, std::string>& pairs) {
+  std::string text;
+  for (const auto& [key, value] : pairs) text += (text.empty() ? "" : " ") + key + "=" + value;
+  return text;
+}
+
+}  // namespace
+
+std::string FormatNumber(double v) {
+  char buffer[32];
+  std::snprintf(buffer, sizeof(buffer), "%.17g", v);
+  return buffer;
+}
+
+int PackedConfigSize() {
+  int n = 0;
+  for (const Param& p : kParams) n += p.scope == Scope::kCylinder ? 1 : 2;
+  return n;
+}
+
+void PackConfig(const CylinderConfig& config, double* out) {
+  CylinderConfig c = config;
+  for (const Param& p : kParams) {
+    int first = p.scope == Scope::kCylinder ? -1 : 0, last = p.scope == Scope::kCylinder ? -1 : 1;
+    for (int k = first; k <= last; ++k) {
+      if (p.choices) {
+        *out++ = ChoiceIndex(c, p.key, std::max(k, 0));
+      } else if (p.field) {
+        *out++ = p.field(c, std::max(k, 0));
+      } else {  // coulomb_friction: -1 when not set
+        *out++ = c.coulomb_friction.value_or(-1);
+      }
+    }
+  }
+}
+
+std::optional<CylinderConfig> UnpackConfig(const std::string& name, const double* values, std::string* error) {
+  CylinderConfig c;
+  for (const Param& p : kParams) {
+    int first = p.scope == Scope::kCylinder ? -1 : 0, last = p.scope == Scope::kCylinder ? -1 : 1;
+    for (int k = first; k <= last; ++k) {
+      double v = *values++;
+      if (p.choices) {
+        SetChoiceIndex(&c, p.key, std::max(k, 0), static_cast<int>(v));
+      } else if (p.field) {
+        p.field(c, std::max(k, 0)) = v;
+      } else if (v >= 0) {
+        c.coulomb_friction = v;
+      }
+    }
+  }
+  // through the parser again, so a packed configuration gets exactly the MJCF's checks
+  return ParseCylinderConfig(name, FormatConfig(c), error);
+}
+
+std::string FormatConfig(const CylinderConfig& c) { return JoinPairs(ConfigPairs(c)); }
+
+std::optional<double> ConfigValue(const CylinderConfig& config, const std::string& key, std::string* error) {
+  std::map<std::string, std::string> pairs = ConfigPairs(config);
+  auto it = pairs.find(key);
+  std::string base = key.rfind("P.", 0) == 0 || key.rfind("N.", 0) == 0 ? key.substr(2) : key;
+  const Param* p = FindParam(base);
+  auto fail = [&](const std::string& message) -> std::optional<double> {
+    *error = "cylinder '" + config.name + "': key '" + key + "': " + message;
+    return std::nullopt;
+  };
+  if (!p) return fail("unknown key (see plugin/README.md or 'pneumo params')");
+  if (p->scope == Scope::kChamber && base == key) return fail("a chamber key: give P." + key + " or N." + key);
+  if (it == pairs.end()) return fail(std::string("applies only to ") + AppliesText(p->applies));
+  if (p->choices) return ChoiceIndex(config, base, key[0] == 'N' ? 1 : 0);
+  return std::strtod(it->second.c_str(), nullptr);
+}
+
+std::optional<CylinderConfig> WithValue(const CylinderConfig& config, const std::string& key, const std::string& value,
+                                        std::string* error) {
+  std::map<std::string, std::string> pairs = ConfigPairs(config);
+  // a chamber key without prefix sets both chambers, as in MJCF
+  std::string base = key.rfind("P.", 0) == 0 || key.rfind("N.", 0) == 0 ? key.substr(2) : key;
+  const Param* p = FindParam(base);
+  if (p && p->scope == Scope::kChamber && base == key) {
+    pairs.erase("P." + key), pairs.erase("N." + key);
+  }
+  pairs[key] = value;
+  return ParseCylinderConfig(config.name, JoinPairs(pairs), error);
 }
 
 }  // namespace pneumatic

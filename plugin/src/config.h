@@ -37,8 +37,9 @@ enum class PressureModel {
 
 // how the chamber ODE is advanced over one MuJoCo step
 enum class ChamberStep {
-  kExact,     // adaptive implicit integration inside the step (default)
-  kExplicit,  // act_dot = dp/dt at the start of the step: MuJoCo's plain Euler, for comparison only
+  kLinearized,  // exponential step of the flow linearised at the step's start, adaptive fallback (default)
+  kExact,       // adaptive implicit integration inside the step, always
+  kExplicit,    // act_dot = dp/dt at the start of the step: MuJoCo's plain Euler, for comparison only
 };
 
 // paper 000 eq. 10 parameters; v is the piston position x, v' its rate
@@ -67,6 +68,7 @@ struct ChamberConfig {
   double leak_area_supply = 0;   // L_c, m^2
   double leak_area_exhaust = 0;  // L_r, m^2
   double area_smoothing = 0;     // m^2: the unit inside smax (the paper's mm^2)
+  double atmosphere_leak_conductance = 0;  // kg/(s Pa): laminar leak G (p - p_atm) out of the chamber
   IdentifiedParams identified;
 };
 
@@ -96,8 +98,9 @@ struct CylinderConfig {
   // seal friction on top of the joint's (or tendon's) frictionloss
   std::optional<double> coulomb_friction;  // N (N m): sliding friction level
   double stribeck_velocity = 0;            // m/s (rad/s)
+  double piston_leak_conductance = 0;      // kg/(s Pa): laminar leak G (p_P - p_N) from P to N
   // numerical method
-  ChamberStep step = ChamberStep::kExact;
+  ChamberStep step = ChamberStep::kLinearized;
   double step_tolerance = 0;   // local error per substep, fraction of p_supply - p_exhaust
   ChamberConfig chamber[2];    // [0] = P, [1] = N
 };
@@ -107,6 +110,30 @@ struct CylinderConfig {
 // Returns nullopt and sets *error ("cylinder 'cyl': key 'x': ...") on failure.
 std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const std::string& text,
                                                   std::string* error);
+
+// The configuration as MJCF text: every key that applies, numbers with 17 digits,
+// so ParseCylinderConfig(name, FormatConfig(c)) gives c back exactly.
+std::string FormatConfig(const CylinderConfig& c);
+
+// A configuration as numbers, one per table row (two for chamber rows: P, N):
+// numbers as they are, choices as their index, coulomb_friction -1 when unset.
+// This is how a cylinder's parameters are stored in mjModel.
+int PackedConfigSize();
+void PackConfig(const CylinderConfig& c, double* out);  // writes PackedConfigSize() numbers
+// back from numbers, validated by the parser as MJCF text would be
+std::optional<CylinderConfig> UnpackConfig(const std::string& name, const double* values, std::string* error);
+
+// The value of one key ("stroke", "P.area"; choices as their index), or nullopt and
+// *error when the key is unknown, needs a P./N. prefix, or does not apply.
+std::optional<double> ConfigValue(const CylinderConfig& c, const std::string& key, std::string* error);
+
+// A copy of c with `key` set to `value` (text, as in MJCF; a chamber key without
+// prefix sets both chambers), checked exactly as the MJCF is.
+std::optional<CylinderConfig> WithValue(const CylinderConfig& c, const std::string& key, const std::string& value,
+                                        std::string* error);
+
+// shortest text that reads back to the same double ("%.17g")
+std::string FormatNumber(double v);
 
 }  // namespace pneumatic
 

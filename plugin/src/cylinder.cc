@@ -39,19 +39,13 @@ double ClampedControl(const mjModel* m, const mjData* d, int id) {
   return u;
 }
 
-// MuJoCo zeroes every control (mjWARN_BADCTRL) if any clamped control is NaN or beyond 1e10
-bool AnyBadControl(const mjModel* m, const mjData* d) {
-  for (int id = 0; id < m->nu; ++id) {
-    if (mju_isBad(ClampedControl(m, d, id))) return true;
-  }
-  return false;
-}
-
 double Act(const mjModel* m, const mjData* d, int id) { return d->act[id - (m->nu - m->na)]; }
+double& ActDot(const mjModel* m, mjData* d, int id) { return d->act_dot[id - (m->nu - m->na)]; }
 
 }  // namespace
 
-std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig config, std::string* error) {
+std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig config, bool gains_written,
+                                            std::string* error) {
   Cylinder c;
   c.config_ = std::move(config);
   const CylinderConfig& cfg = c.config_;
@@ -85,7 +79,10 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
     int id = mj_name2id(m, mjOBJ_ACTUATOR, full.c_str());
     if (id < 0) return fail(full, "missing: each cylinder needs actuators '" + name + ".P' and '" + name + ".N'");
     if (m->actuator_dyntype[id] != mjDYN_USER) return fail(full, "needs dyntype=\"user\" (its act is the chamber's gauge pressure)");
-    if (m->actuator_gaintype[id] != mjGAIN_USER) return fail(full, "needs gaintype=\"user\" (force = area * gauge pressure)");
+    // user as written in MJCF; fixed once attached (WriteGains)
+    if (m->actuator_gaintype[id] != mjGAIN_USER && !(gains_written && m->actuator_gaintype[id] == mjGAIN_FIXED)) {
+      return fail(full, "needs gaintype=\"user\" (force = area * gauge pressure)");
+    }
     if (m->actuator_biastype[id] != mjBIAS_NONE) return fail(full, "needs biastype=\"none\"");
     if (m->actuator_actlimited[id]) return fail(full, "must not be actlimited: MuJoCo would clip the chamber pressure");
     if (m->actuator_gear[6 * id] == 0) return fail(full, "gear is 0: the cylinder could neither move nor push");
@@ -105,6 +102,7 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
   } else if (trntype != mjTRN_SLIDERCRANK && trntype != mjTRN_TENDON) {
     return fail(p_name, "a cylinder drives a slide or hinge joint, a slider-crank or a tendon (site transmissions have no stroke)");
   }
+  if (trntype == mjTRN_JOINT || trntype == mjTRN_JOINTINPARENT) c.dof_ = m->jnt_dofadr[m->actuator_trnid[2 * p_id]];
   if (!SameTransmission(m, p_id, n_id)) {
     return fail(name + ".N", "must use the same transmission and gear as '" + p_name + "'");
   }
@@ -177,6 +175,7 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
       return std::nullopt;
     }
     c.actuators_.push_back({friction_id, {Role::kFriction, -1, 0}});
+    c.friction_id_ = friction_id;
   } else if (friction_id >= 0) {
     return fail(friction_name, "present but coulomb_friction is not set");
   }
@@ -190,6 +189,14 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
     if (!known) return fail(actuator, "has no role in this cylinder (valve and input decide the command actuators)");
   }
 
+  // switched PWM: the step holds a bounded number of carrier edges
+  if (cfg.input == CommandInput::kPwm && cfg.pwm_frequency * m->opt.timestep > kMaxPwmPeriodsPerStep) {
+    *error = "cylinder '" + name + "': key 'pwm_frequency': " + FormatNumber(cfg.pwm_frequency) +
+             " Hz puts more than " + FormatNumber(kMaxPwmPeriodsPerStep) + " carrier periods in one " +
+             FormatNumber(m->opt.timestep) + " s step; use a shorter timestep or the averaged model (pwm_frequency=0)";
+    return std::nullopt;
+  }
+
   c.info_.name = name;
   c.info_.p_atm = cfg.p_atm;
   c.info_.p_supply = cfg.p_supply;
@@ -199,11 +206,16 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
   return c;
 }
 
-ValveInputs Cylinder::ReadValves(const mjModel* m, const mjData* d) const {
+bool Cylinder::NeedsEndVelocity() const {
+  bool physical = config_.chamber[0].model == PressureModel::kPhysical ||
+                  config_.chamber[1].model == PressureModel::kPhysical;
+  return physical && config_.step != ChamberStep::kExplicit;
+}
+
+ValveInputs Cylinder::ReadValves(const mjModel* m, const mjData* d, bool zero_commands) const {
   ValveInputs in;
   in.time = d->time;
   in.step = m->opt.timestep;
-  bool zero_commands = AnyBadControl(m, d);
   for (int i = 0; i < 4; ++i) {
     if (command_id_[i] >= 0 && !zero_commands) in.command[i] = ClampedControl(m, d, command_id_[i]);
     if (state_id_[i] >= 0) in.state[i] = Act(m, d, state_id_[i]);
@@ -211,80 +223,91 @@ ValveInputs Cylinder::ReadValves(const mjModel* m, const mjData* d) const {
   return in;
 }
 
-double Cylinder::EndOfStepVelocity(const mjModel* m, const mjData* d) const {
-  // M qacc = qfrc_passive - qfrc_bias + qfrc_applied + J' xfrc_applied + qfrc_actuator: everything but
-  // the constraint forces is computed before act_dot in mj_forward (qfrc_actuator included)
-  int nv = m->nv;
-  thread_local std::vector<mjtNum> force, qacc;
-  force.resize(nv), qacc.resize(nv);
-  for (int i = 0; i < nv; ++i) {
-    force[i] = d->qfrc_passive[i] - d->qfrc_bias[i] + d->qfrc_applied[i] + d->qfrc_actuator[i];
-  }
-  // mj_applyFT and mj_solveM take a non-const mjData but only read it (and use its scratch stack)
-  mjData* scratch = const_cast<mjData*>(d);
-  for (int b = 1; b < m->nbody; ++b) {
-    const mjtNum* wrench = d->xfrc_applied + 6 * b;
-    if (!mju_isZero(const_cast<mjtNum*>(wrench), 6)) {
-      mj_applyFT(m, scratch, wrench, wrench + 3, d->xipos + 3 * b, b, force.data());
-    }
-  }
-  mj_solveM(m, scratch, qacc.data(), force.data(), 1);
-  // semi-implicit Euler: qvel(t + h) = qvel + h qacc; the piston's rate is the actuator moment times it
-  const mjtNum* moment = d->actuator_moment + static_cast<size_t>(info_.chamber_actuator[0]) * nv;
-  double rate = 0;
-  for (int i = 0; i < nv; ++i) rate += moment[i] * (d->qvel[i] + m->opt.timestep * qacc[i]);
-  return rate;
-}
-
-VolumePath Cylinder::Volume(const mjModel* m, const mjData* d, int chamber) const {
+VolumePath Cylinder::Volume(const mjModel* m, const mjData* d, int chamber, double x_rate) const {
   const ChamberConfig& k = config_.chamber[chamber];
-  // MuJoCo's Euler and implicit integrators move the piston over the step with the velocity at its
-  // end; the exact step follows that path (plain explicit Euler uses the velocity at the start)
-  double x = PistonPosition(m, d, info_);
-  double x_rate = config_.step == ChamberStep::kExact ? EndOfStepVelocity(m, d) : PistonVelocity(m, d, info_);
   // chamber P grows with x, chamber N shrinks (rigs.md volumes)
   double sign = chamber == 0 ? 1.0 : -1.0;
   VolumePath v;
   v.dead_volume = k.dead_volume;
   v.area = k.area;
   v.stroke = config_.stroke;
-  v.swept = config_.stroke / 2 + sign * x;
+  v.swept = config_.stroke / 2 + sign * PistonPosition(m, d, info_);
   v.swept_rate = sign * x_rate;
   return v;
 }
 
-double Cylinder::ChamberActDot(const mjModel* m, const mjData* d, int chamber) const {
-  const ChamberConfig& k = config_.chamber[chamber];
-  double h = m->opt.timestep;
-  double p0 = Act(m, d, info_.chamber_actuator[chamber]) + config_.p_atm;
-  ValveInputs valves = ReadValves(m, d);
-  if (k.model == PressureModel::kIdentified) {
+void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass) const {
+  const double h = m->opt.timestep;
+  ValveInputs valves = ReadValves(m, d, pass.zero_commands);
+  for (int i = 0; i < 4; ++i) {
+    if (state_id_[i] >= 0) ActDot(m, d, state_id_[i]) = (ValveStateAtEnd(config_, i, valves) - valves.state[i]) / h;
+  }
+
+  // act_dot of each chamber: (p(t + h) - p(t)) / h, or dp/dt for step=explicit
+  double p0[2], p1[2], rate[2];
+  for (int k = 0; k < 2; ++k) p0[k] = Act(m, d, info_.chamber_actuator[k]) + config_.p_atm;
+  // MuJoCo's Euler and implicit integrators move the piston over the step with the velocity at its
+  // end; the chamber steps follow that path (plain explicit Euler uses the velocity at the start)
+  double x_rate = PistonVelocity(m, d, info_);
+  if (pass.end_velocity && NeedsEndVelocity()) {
+    // the piston's rate is the actuator moment times the joint velocities; a joint's is one entry
+    const mjtNum* moment = d->actuator_moment + static_cast<size_t>(info_.chamber_actuator[0]) * m->nv;
+    x_rate = dof_ >= 0 ? moment[dof_] * pass.end_velocity[dof_] : mju_dot(moment, pass.end_velocity, m->nv);
+  }
+  const double leak = config_.piston_leak_conductance;
+  bool physical[2];
+  for (int k = 0; k < 2; ++k) physical[k] = config_.chamber[k].model == PressureModel::kPhysical;
+
+  // the identified model (paper 000 eq. 10), chamber by chamber, with the exact step of eq. 7
+  for (int k = 0; k < 2; ++k) {
+    if (physical[k]) continue;
     // the chamber's own valve voltage, or the single 5/3 valve's duplicated (paper 000 Section V)
-    double u = config_.valve == ValveKind::kProportionalPerChamber ? valves.command[chamber] : valves.command[0];
-    SteadyStateAndRate sr = IdentifiedModel(k.identified, u, PistonPosition(m, d, info_), PistonVelocity(m, d, info_));
-    if (config_.step == ChamberStep::kExplicit) return (sr.s - p0) * sr.r;
-    return (IdentifiedPressureStep(sr, p0, h) - p0) / h;
+    double u = config_.valve == ValveKind::kProportionalPerChamber ? valves.command[k] : valves.command[0];
+    SteadyStateAndRate sr = IdentifiedModel(config_.chamber[k].identified, u, PistonPosition(m, d, info_),
+                                            PistonVelocity(m, d, info_));
+    rate[k] = config_.step == ChamberStep::kExplicit ? (sr.s - p0[k]) * sr.r
+                                                     : (IdentifiedPressureStep(sr, p0[k], h) - p0[k]) / h;
   }
-  PortSchedule ports(config_, chamber, valves);
-  VolumePath volume = Volume(m, d, chamber);
-  if (config_.step == ChamberStep::kExplicit) {
-    return PressureRate(chamber_model_[chamber], ports.At(0), p0, volume.At(0), volume.RateAt(0));
+
+  // the physical model: the valves' openings over the step and the volumes along the piston's path
+  if (physical[0] || physical[1]) {
+    PortSchedule ports[2] = {{config_, 0, valves}, {config_, 1, valves}};
+    VolumePath volume[2] = {Volume(m, d, 0, x_rate), Volume(m, d, 1, x_rate)};
+    if (config_.step == ChamberStep::kLinearized && physical[0] && physical[1]) {
+      // both chambers together: the leak across the piston couples them
+      const PortSchedule* schedules[2] = {&ports[0], &ports[1]};
+      LinearizedPressureStep(chamber_model_, schedules, volume, leak, p0, h, p1);
+      for (int k = 0; k < 2; ++k) rate[k] = (p1[k] - p0[k]) / h;
+    } else {
+      // chamber by chamber, the leak across the piston from the other chamber's pressure at the start
+      for (int k = 0; k < 2; ++k) {
+        if (!physical[k]) continue;
+        if (config_.step == ChamberStep::kExplicit) {
+          rate[k] = PressureRate(chamber_model_[k], ports[k].At(0), p0[k], volume[k].At(0), volume[k].RateAt(0),
+                                 leak, p0[1 - k]);
+        } else {
+          p1[k] = PhysicalPressureStep(chamber_model_[k], ports[k], volume[k], p0[k], h, leak, p0[1 - k]);
+          rate[k] = (p1[k] - p0[k]) / h;
+        }
+      }
+    }
   }
-  return (PhysicalPressureStep(chamber_model_[chamber], ports, volume, p0, h) - p0) / h;
+  for (int k = 0; k < 2; ++k) ActDot(m, d, info_.chamber_actuator[k]) = rate[k];
 }
 
-double Cylinder::ValveActDot(const mjModel* m, const mjData* d, int valve) const {
-  ValveInputs valves = ReadValves(m, d);
-  return (ValveStateAtEnd(config_, valve, valves) - valves.state[valve]) / m->opt.timestep;
-}
-
-double Cylinder::ChamberGain(int chamber) const {
+void Cylinder::WriteGains(mjModel* m) const {
   // force A_P (p_P - p_atm) - A_N (p_N - p_atm), rigs.md; paper 001 eq. (1)
-  return chamber == 0 ? config_.chamber[0].area : -config_.chamber[1].area;
+  for (const auto& [id, role] : actuators_) {
+    m->actuator_gaintype[id] = mjGAIN_FIXED;
+    mjtNum* gain = m->actuator_gainprm + id * mjNGAIN;
+    for (int i = 0; i < mjNGAIN; ++i) gain[i] = 0;
+    if (role.role == Role::kChamber) gain[0] = role.index == 0 ? config_.chamber[0].area : -config_.chamber[1].area;
+  }
 }
 
 double Cylinder::FrictionBias(const mjModel* m, const mjData* d) const {
-  // Stribeck curve F(v) = F_c + (F_s - F_c) exp(-(v/v_s)^2) against the motion: frictionloss
+  // Stribeck curve F(v) = F_c + (F_s - F_c) exp(-(v/v_s)^2) against the motion (the project's own
+  // form of the papers' static and Coulomb levels, paper 001 Section III): frictionloss
   // gives F_s, this term gives back (F_s - F_c)(1 - exp(-(v/v_s)^2)) along it. Its slope is zero
   // at rest, so it cannot turn the soft frictionloss constraint's creep into a breakaway
   double v = PistonVelocity(m, d, info_);

@@ -31,38 +31,48 @@ struct ActuatorRole {
   int index = 0;      // chamber (0 = P, 1 = N) or valve index (u1..u4 -> 0..3)
 };
 
+// what the whole model's pass computes once for every cylinder
+struct PassInputs {
+  bool zero_commands = false;         // a bad control: MuJoCo zeroes every control this pass
+  const mjtNum* end_velocity = nullptr;  // predicted qvel(t + h), nv numbers (null: not needed)
+};
+
 class Cylinder {
  public:
   // Binds the configuration to m's actuators named "<name>.<role>", checks
-  // their types and transmissions; nullopt with *error on failure.
-  static std::optional<Cylinder> FromModel(const mjModel* m, CylinderConfig config, std::string* error);
+  // their types and transmissions; nullopt with *error on failure. With
+  // gains_written (m was attached before), chamber gains may be fixed.
+  static std::optional<Cylinder> FromModel(const mjModel* m, CylinderConfig config, bool gains_written,
+                                           std::string* error);
 
   const CylinderConfig& config() const { return config_; }
   const CylinderInfo& info() const { return info_; }
   // (actuator id, role) of every actuator of this cylinder
   const std::vector<std::pair<int, ActuatorRole>>& actuators() const { return actuators_; }
+  // true if a step of this cylinder follows the piston's predicted end-of-step velocity
+  bool NeedsEndVelocity() const;
 
-  // act_dot of a chamber actuator: (p(t + h) - p(t)) / h with the exact step
-  double ChamberActDot(const mjModel* m, const mjData* d, int chamber) const;
-  // act_dot of a valve-state actuator (spool or armature)
-  double ValveActDot(const mjModel* m, const mjData* d, int valve) const;
-  // gain of a chamber actuator: force = gain * act
-  double ChamberGain(int chamber) const;
+  // Advances the chambers and valve states over the step: writes the act_dot of the
+  // chamber actuators ((p(t + h) - p(t)) / h with the configured chamber step) and of
+  // the valve-state actuators.
+  void Step(const mjModel* m, mjData* d, const PassInputs& pass) const;
+  // Makes the force of each actuator a fixed gain on its act or ctrl: +A_P, -A_N on
+  // the chamber gauge pressures, 0 for valve commands and friction.
+  void WriteGains(mjModel* m) const;
   // seal friction (bias of "<cyl>.friction"), on top of the transmission's frictionloss
   double FrictionBias(const mjModel* m, const mjData* d) const;
 
  private:
-  ValveInputs ReadValves(const mjModel* m, const mjData* d) const;
-  VolumePath Volume(const mjModel* m, const mjData* d, int chamber) const;
-  // piston velocity at the end of the step, predicted from the smooth dynamics (constraint forces
-  // and the Euler integrator's implicit damping left out)
-  double EndOfStepVelocity(const mjModel* m, const mjData* d) const;
+  ValveInputs ReadValves(const mjModel* m, const mjData* d, bool zero_commands) const;
+  VolumePath Volume(const mjModel* m, const mjData* d, int chamber, double x_rate) const;
 
   CylinderConfig config_;
   CylinderInfo info_;
   ChamberModel chamber_model_[2];
   int command_id_[4] = {-1, -1, -1, -1};  // ctrl sources, in ValveInputs::command order
   int state_id_[4] = {-1, -1, -1, -1};    // act sources, in ValveInputs::state order
+  int friction_id_ = -1;
+  int dof_ = -1;                          // the joint's dof when the transmission is a slide or hinge joint
   double static_friction_ = 0;            // transmission frictionloss in actuator units
   std::vector<std::pair<int, ActuatorRole>> actuators_;
 };

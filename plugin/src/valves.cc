@@ -13,31 +13,36 @@ double Smax(double y) { return (std::sqrt(y * y + 1) + y) / 2; }
 bool HasDelays(const CylinderConfig& c) { return c.delay_open > 0 || c.delay_close > 0; }
 
 // (start instant, value) pairs on [0, h]: the first starts at 0
-using Timeline = std::vector<std::pair<double, bool>>;
+using Timeline = InlineVector<std::pair<double, bool>, 32>;
 
 // the on/off command of valve i (0..3: U1 P-supply, U2 P-exhaust, U3 N-supply, U4 N-exhaust) over the step
 Timeline CommandTimeline(const CylinderConfig& c, int valve, const ValveInputs& in) {
-  if (c.input == CommandInput::kValves) return {{0.0, in.command[valve] >= 0.5}};
+  Timeline events;
+  if (c.input == CommandInput::kValves) {
+    events.push_back({0.0, in.command[valve] >= 0.5});
+    return events;
+  }
   // switched PWM of paper 003 eqs. (12)-(13): mode 6 (U1, U4) for u >= 0, mode 7 (U2, U3) for u < 0,
   // on for |u| of each carrier period, starting at the period's beginning
   double duty = std::clamp(in.command[0], -1.0, 1.0);
   bool active = duty >= 0 ? (valve == 0 || valve == 3) : (valve == 1 || valve == 2);
   double on_fraction = std::fabs(duty);
-  if (!active || on_fraction == 0) return {{0.0, false}};
-  if (on_fraction == 1) return {{0.0, true}};
+  if (!active || on_fraction == 0 || on_fraction == 1) {
+    events.push_back({0.0, active && on_fraction == 1});
+    return events;
+  }
   double period = 1 / c.pwm_frequency;
   double t0 = in.time, t1 = in.time + in.step;
   double k = std::floor(t0 / period);
-  Timeline events;
   auto push = [&](double tau, bool on) {
-    if (events.empty() || events.back().second != on) events.emplace_back(tau, on);
+    if (events.empty() || events.back().second != on) events.push_back({tau, on});
   };
   for (; k * period < t1; k += 1) {
     double on_start = k * period, on_end = on_start + on_fraction * period;
     push(std::max(on_start - t0, 0.0), on_start <= t0 ? t0 < on_end : true);
     if (on_end > t0 && on_end < t1) push(on_end - t0, false);
   }
-  if (events.empty() || events.front().first > 0) events.insert(events.begin(), {0.0, false});
+  if (events.empty() || events.front().first > 0) events.insert_front({0.0, false});
   return events;
 }
 
@@ -78,8 +83,9 @@ Timeline OpenTimeline(const CylinderConfig& c, int valve, const ValveInputs& in,
   }
   Armature armature{c, std::clamp(in.state[valve], 0.0, 1.0)};
   bool open = command.front().second ? armature.position >= 0.5 : armature.position > 0.5;
-  Timeline result{{0.0, open}};
-  for (size_t s = 0; s < command.size(); ++s) {
+  Timeline result;
+  result.push_back({0.0, open});
+  for (int s = 0; s < command.size(); ++s) {
     double start = command[s].first;
     double end = s + 1 < command.size() ? command[s + 1].first : in.step;
     double flip = armature.Advance(command[s].second, end - start);
@@ -88,7 +94,7 @@ Timeline OpenTimeline(const CylinderConfig& c, int valve, const ValveInputs& in,
       if (start + flip <= 0) {
         result.front().second = open;
       } else {
-        result.emplace_back(start + flip, open);
+        result.push_back({start + flip, open});
       }
     }
   }
@@ -171,11 +177,11 @@ PortSchedule::PortSchedule(const CylinderConfig& c, int chamber, const ValveInpu
   }
   Timeline supply = OpenTimeline(c, 2 * chamber, in, nullptr);
   Timeline exhaust = OpenTimeline(c, 2 * chamber + 1, in, nullptr);
-  std::vector<double> instants;
+  InlineVector<double, 64> instants;
   for (const auto& e : supply) instants.push_back(e.first);
   for (const auto& e : exhaust) instants.push_back(e.first);
   std::sort(instants.begin(), instants.end());
-  instants.erase(std::unique(instants.begin(), instants.end()), instants.end());
+  instants.resize(static_cast<int>(std::unique(instants.begin(), instants.end()) - instants.begin()));
   for (double t : instants) {
     if (t > 0 && t < in.step) breakpoints_.push_back(t);
   }
@@ -197,9 +203,20 @@ PortOpenings PortSchedule::At(double tau) const {
     double toward_p = std::max(area, 0.0), toward_n = std::max(-area, 0.0);
     return chamber_ == 0 ? PortOpenings{toward_p, toward_n} : PortOpenings{toward_n, toward_p};
   }
-  size_t segment = 0;
+  int segment = 0;
   while (segment < breakpoints_.size() && breakpoints_[segment] <= tau) ++segment;
   return segments_[segment];
+}
+
+SwitchInstants MergedBreakpoints(const PortSchedule& a, const PortSchedule& b) {
+  SwitchInstants merged;
+  const SwitchInstants &x = a.breakpoints(), &y = b.breakpoints();
+  int i = 0, j = 0;
+  while (i < x.size() || j < y.size()) {
+    double next = j >= y.size() || (i < x.size() && x[i] <= y[j]) ? x[i++] : y[j++];
+    if (merged.empty() || merged.back() < next) merged.push_back(next);
+  }
+  return merged;
 }
 
 }  // namespace pneumatic

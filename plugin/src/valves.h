@@ -9,11 +9,48 @@
 #ifndef PNEUMATIC_VALVES_H_
 #define PNEUMATIC_VALVES_H_
 
-#include <vector>
 
 #include "config.h"
 
 namespace pneumatic {
+
+// A short list stored inline, so that a step allocates nothing on the heap. It holds
+// at most N items; a push beyond that replaces the last item (Attach refuses the
+// configurations that could get there: more than kMaxPwmPeriodsPerStep carrier periods).
+template <typename T, int N>
+class InlineVector {
+ public:
+  InlineVector() {}  // items are left uninitialized: only the first size() are ever read
+  void push_back(const T& item) { items_[size_ < N ? size_++ : N - 1] = item; }
+  void insert_front(const T& item) {
+    if (size_ < N) ++size_;
+    for (int i = size_ - 1; i > 0; --i) items_[i] = items_[i - 1];
+    items_[0] = item;
+  }
+  void resize(int n) { size_ = n; }
+  int size() const { return size_; }
+  bool empty() const { return size_ == 0; }
+  T& operator[](int i) { return items_[i]; }
+  const T& operator[](int i) const { return items_[i]; }
+  T* begin() { return items_; }
+  T* end() { return items_ + size_; }
+  const T* begin() const { return items_; }
+  const T* end() const { return items_ + size_; }
+  const T& front() const { return items_[0]; }
+  T& front() { return items_[0]; }
+  const T& back() const { return items_[size_ - 1]; }
+
+ private:
+  union {  // a union member is not constructed: no cost for the unused capacity
+    T items_[N];
+  };
+  int size_ = 0;
+};
+
+// switched PWM: at most this many carrier periods may fall in one MuJoCo step
+constexpr double kMaxPwmPeriodsPerStep = 8;
+// instants within one step where a chamber's openings jump
+using SwitchInstants = InlineVector<double, 64>;
 
 struct PortOpenings {
   double supply = 0;   // port between supply and chamber
@@ -45,16 +82,19 @@ class PortSchedule {
   PortSchedule(const CylinderConfig& c, int chamber, const ValveInputs& in);
   PortOpenings At(double tau) const;
   // instants in (0, h) where the openings jump, increasing
-  const std::vector<double>& breakpoints() const { return breakpoints_; }
+  const SwitchInstants& breakpoints() const { return breakpoints_; }
 
  private:
   const CylinderConfig* config_;
   int chamber_;
   bool spool_ = false;                  // 5/3 valve: openings follow the spool
   double spool_start_ = 0, spool_target_ = 0;
-  std::vector<double> breakpoints_;     // segment k starts at breakpoints_[k-1] (0 for k = 0)
-  std::vector<PortOpenings> segments_;  // openings on each segment
+  SwitchInstants breakpoints_;                  // segment k starts at breakpoints_[k-1] (0 for k = 0)
+  InlineVector<PortOpenings, 65> segments_;  // openings on each segment
 };
+
+// the breakpoints of two schedules, merged, increasing, without repeats
+SwitchInstants MergedBreakpoints(const PortSchedule& a, const PortSchedule& b);
 
 // state of valve actuators at the end of the step (the value their act must reach)
 // onoff: armature of valve i (0..3); 5/3: spool position (m)

@@ -3,12 +3,12 @@
 // A pneumatic cylinder is written into an MJCF model as a few ordinary
 // <general> actuators named "<cylinder>.<role>" plus one <custom><text> element
 // "pneumatic:<cylinder>" holding its parameters (see plugin/README.md). Attach()
-// reads and validates them and installs MuJoCo 2.2's global actuator callbacks
-// (mjcb_act_dyn, mjcb_act_gain, mjcb_act_bias). From then on every mj_step
-// advances each chamber pressure, stored as an activation in d->act (gauge
-// pressure, Pa), over the step and applies the force
-//   A_P (p_P - p_atm) - A_N (p_N - p_atm)
-// through the actuators' transmission.
+// reads and validates them and stores them in the model itself (the actuators'
+// user data), so a copy made with mj_copyModel steps exactly like its original.
+// From then on every mj_step advances each chamber pressure, stored as an
+// activation in d->act (gauge pressure, Pa), over the step, and MuJoCo applies
+// the force A_P (p_P - p_atm) - A_N (p_N - p_atm) through the actuators'
+// transmission (fixed gains +A_P and -A_N on the gauge pressures).
 //
 // All state lives in mjData (d->act, d->qpos, d->qvel, d->ctrl, d->time): the
 // callbacks are pure functions of (m, d), so mj_resetData, mj_copyData,
@@ -17,6 +17,7 @@
 #ifndef PNEUMATIC_PNEUMATIC_H_
 #define PNEUMATIC_PNEUMATIC_H_
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,21 +25,42 @@
 
 namespace pneumatic {
 
-// Reads the pneumatic cylinders of m, validates their configuration and
-// installs the callbacks. Several models may be attached at once; callbacks
-// installed before the first Attach keep serving every actuator that is not
-// pneumatic. Returns false and fills *error (naming the cylinder, actuator
-// and key) if the configuration is invalid; nothing is attached then.
-// A model without any "pneumatic:" element attaches with no cylinders.
-bool Attach(const mjModel* m, std::string* error);
+// The number of actuator user values the extension needs: a model with cylinders
+// declares <size nuser_actuator="ActuatorUserSize()"/> (or more) in its MJCF.
+int ActuatorUserSize();
 
-// Forgets m. When the last model is detached, the callbacks that were
-// installed before the first Attach are restored. Call it before
-// mj_deleteModel(m). Detaching a model that is not attached does nothing.
-void Detach(const mjModel* m);
+// Reads the pneumatic cylinders of m, validates their configuration, stores it in
+// m (actuator_user; the gains of the cylinders' actuators become fixed) and
+// installs MuJoCo's actuator callbacks mjcb_act_dyn and mjcb_act_bias, once per
+// process; callbacks installed before keep serving every actuator that is not
+// pneumatic. Returns false and fills *error (naming the cylinder, actuator and
+// key) if the configuration is invalid; m is unchanged then. A model without any
+// "pneumatic:" element attaches with no cylinders. Attaching again re-reads the
+// MJCF text, discarding values set with SetParameter.
+bool Attach(mjModel* m, std::string* error);
 
-// True if m is attached.
+// Makes m an ordinary model again: its actuators lose their pneumatic tags (and
+// keep their fixed gains). Optional: a model may be freed without it.
+void Detach(mjModel* m);
+
+// True if m (or the model it was copied from) is attached.
 bool IsAttached(const mjModel* m);
+
+// A parameter of cylinder `cylinder` by its MJCF key ("stroke", "P.area"; a
+// choice as its index among the choices of Parameters()). nullopt and *error if
+// the model is not attached, or the cylinder or key is unknown or does not apply.
+std::optional<double> GetParameter(const mjModel* m, const std::string& cylinder, const std::string& key,
+                                   std::string* error);
+
+// Sets a parameter, checked exactly as the MJCF is (range, unit, the keys that
+// apply, relations such as p_supply > p_exhaust); a chamber key without prefix
+// sets both chambers. On success the model's stored parameters change and the
+// next step uses them; on failure m is unchanged and *error says why. Choices
+// ("valve", "flow", ...) take the text overload. Call it between steps, not
+// while another thread steps m.
+bool SetParameter(mjModel* m, const std::string& cylinder, const std::string& key, double value, std::string* error);
+bool SetParameter(mjModel* m, const std::string& cylinder, const std::string& key, const std::string& value,
+                  std::string* error);
 
 // Chambers of a cylinder: P is the one whose pressure pushes x positive.
 enum class Chamber { kP = 0, kN = 1 };
@@ -82,6 +104,9 @@ struct ParameterDoc {
   std::string valid;           // range or choices
   std::string scope;           // "cylinder" or "chamber" (may take a P. or N. prefix)
   std::string meaning;
+  bool is_choice = false;      // a word from `valid`, not a number
+  double min = 0, max = 0;     // numeric bounds (numbers only)
+  bool min_open = false, max_open = false;  // true: the bound itself is excluded
 };
 const std::vector<ParameterDoc>& Parameters();
 
