@@ -1,27 +1,34 @@
 // Benchmark of the pneumatic extension on the three rigs of shared/spec/rigs.md; it prints the
 // Markdown of the README's "Benchmark" section to stdout (its headings start at ###; progress
-// goes to stderr).
+// goes to stderr). It compares the three chamber steps of the MJCF key `step`:
+//   linearized  the shipped model as is (the default): an exponential step with the flow
+//               linearised in conductance form, with an adaptive fallback;
+//   exact       `step=exact` inserted: adaptive implicit backward Euler with Richardson
+//               extrapolation (the former default);
+//   explicit    `step=explicit` inserted: MuJoCo's plain explicit Euler on the same equations
+//               (comparison only).
 //
 // Speed: each shipped rig model (models_mjcf/, timestep 0.25 ms) is stepped with mj_step for
 // about one second of wall time, its commands taken from the rig's reference excitation
 // (Excitation(rig, 4 s, seed 1), zero-order hold at the control period, the state reset every
-// 4 s). Three variants: the model with the chamber step `step=exact` (the default), the same
-// model with `step=explicit` (MuJoCo's plain explicit Euler on the same equations), and the
-// same model without the extension (no callbacks, ctrl 0), which is MuJoCo's own cost. Each is
-// run three times, interleaved, and the median is reported. The extension's cost per chamber
-// step is (time per step with the extension - time per step without) / 2 chambers.
+// 4 s), once per chamber step and once without the extension (no callbacks, ctrl 0), which is
+// MuJoCo's own cost. Each of these four is run three times, interleaved, and the median is
+// reported. The extension's cost per chamber step is (time per step with the extension - time
+// per step without) / 2 chambers.
 //
 // Accuracy: the reference is the independent rigs.md implementation of tests/reference,
 // integrated with classical RK4 at 1 us over 4 s of the rig's excitation generated with every
 // command held 10 ms (so that every dt below divides the command period). Its log is replayed
 // through the model (pneumatic::Rollout) with the timestep set to dt = 0.5, 1, 2, 5, 10 ms, for
-// both chamber steps and in two modes: open loop (MuJoCo simulates the mechanics) and along the
+// each chamber step and in two modes: open loop (MuJoCo simulates the mechanics) and along the
 // reference's motion (follow_motion: only the pressures are simulated, paper 000's multi-step
 // prediction). The error is the max |p_sim - p_ref| over both chambers and all rows (the log
 // samples once per command period), as % of supply - exhaust, and for open loop max |x error|.
 // A dt that does not divide the command period cannot hold the commands and is skipped. A
 // replay that Rollout rejects (MuJoCo warnings, non-finite state) or whose pressure leaves
-// [0, 10 supply] is "diverged".
+// [0, 10 supply] is "diverged". After each accuracy table two checks are printed: whether
+// linearized stays within kLinearizedTolerance (1.5x) of exact's pressure error at every dt
+// (errors below kTieFraction, 0.001 %, for both count as a tie), and whether exact beats explicit.
 #include <algorithm>
 #include <array>
 #include <chrono>
@@ -57,6 +64,8 @@ constexpr double kSpeedSeconds = 1;         // wall time of one speed measuremen
 constexpr int kSpeedRepeats = 3;
 constexpr double kTimesteps[] = {0.5e-3, 1e-3, 2e-3, 5e-3, 10e-3};
 constexpr int kChambers = 2;
+constexpr double kLinearizedTolerance = 1.5;  // linearized's pressure error may be this many times exact's
+constexpr double kTieFraction = 1e-5;         // errors below this fraction of supply - exhaust for both: a tie
 
 double Seconds(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
@@ -113,21 +122,32 @@ std::string Compiler() {
 
 //---------------------------------- models ---------------------------------------------------------
 
-// how the model integrates its chamber pressures
-enum class Step { kExact = 0, kExplicit = 1 };
+// how the model integrates its chamber pressures; the values index kSteps
+enum class Step { kLinearized = 0, kExact = 1, kExplicit = 2 };
 
-const char* StepName(Step step) { return step == Step::kExact ? "exact" : "explicit"; }
+struct StepVariant {
+  Step step;
+  const char* name;
+  const char* key;  // text inserted at the start of the cylinder's configuration ("": the shipped model)
+};
+constexpr StepVariant kSteps[] = {
+    {Step::kLinearized, "linearized", ""},
+    {Step::kExact, "exact", "step=exact "},
+    {Step::kExplicit, "explicit", "step=explicit "},
+};
+constexpr size_t kStepCount = std::size(kSteps);
+static_assert(kSteps[0].step == Step::kLinearized && kSteps[1].step == Step::kExact &&
+              kSteps[2].step == Step::kExplicit, "kSteps is indexed by Step");
 
-// a loaded rig model, attached to the extension while `attached`
+constexpr size_t Index(Step step) { return static_cast<size_t>(step); }
+const StepVariant& Variant(Step step) { return kSteps[Index(step)]; }
+
+// a loaded rig model; once attached it stays attached (the extension needs no detaching)
 class RigModel {
  public:
   RigModel(const RigModel&) = delete;
   RigModel& operator=(const RigModel&) = delete;
-  ~RigModel() {
-    if (!m_) return;
-    pneumatic::Detach(m_);
-    mj_deleteModel(m_);
-  }
+  ~RigModel() { mj_deleteModel(m_); }
 
   // loads the shipped model of `rig` with the chamber step `step`; null and *error on failure
   static std::unique_ptr<RigModel> Load(Rig rig, Step step, std::string* error);
@@ -135,7 +155,6 @@ class RigModel {
   mjModel* m() const { return m_; }
 
   bool Attach(std::string* error) { return pneumatic::Attach(m_, error); }
-  void Detach() { pneumatic::Detach(m_); }
 
  private:
   explicit RigModel(mjModel* m) : m_(m) {}
@@ -154,15 +173,16 @@ std::unique_ptr<RigModel> RigModel::Load(Rig rig, Step step, std::string* error)
   text << in.rdbuf();
   std::string xml = text.str();
 
-  // step=explicit: prepend the key to the cylinder's configuration
-  if (step == Step::kExplicit) {
+  // the variant's key, prepended to the cylinder's configuration
+  const char* key = Variant(step).key;
+  if (*key) {
     size_t element = xml.find("name=\"pneumatic:");
     size_t data = element == std::string::npos ? element : xml.find("data=\"", element);
     if (data == std::string::npos) {
       *error = file + ": no <text name=\"pneumatic:...\" data=\"...\">";
       return nullptr;
     }
-    xml.insert(data + std::strlen("data=\""), "step=explicit ");
+    xml.insert(data + std::strlen("data=\""), key);
   }
 
   // compile through a virtual file system (mjVFS is large: heap)
@@ -253,12 +273,25 @@ SpeedSample MeasureSpeed(const RigModel& model, Rig rig, const std::vector<pneum
   return sample;
 }
 
+// MuJoCo's actuator callbacks removed while it lives: the extension installs them globally on
+// the first Attach and keeps them, so "MuJoCo alone" takes them out to measure MuJoCo's own cost
+class WithoutActuatorCallbacks {
+ public:
+  WithoutActuatorCallbacks() { mjcb_act_dyn = mjcb_act_gain = mjcb_act_bias = nullptr; }
+  ~WithoutActuatorCallbacks() { mjcb_act_dyn = dyn_, mjcb_act_gain = gain_, mjcb_act_bias = bias_; }
+  WithoutActuatorCallbacks(const WithoutActuatorCallbacks&) = delete;
+  WithoutActuatorCallbacks& operator=(const WithoutActuatorCallbacks&) = delete;
+
+ private:
+  mjfAct dyn_ = mjcb_act_dyn, gain_ = mjcb_act_gain, bias_ = mjcb_act_bias;
+};
+
 double Median(std::vector<double> values) {
   std::sort(values.begin(), values.end());
   return values[values.size() / 2];
 }
 
-// the speed table: MuJoCo alone, exact and explicit for each rig
+// the speed table: MuJoCo alone and each chamber step for each rig
 bool PrintSpeed(const std::vector<std::vector<pneumatic::reference::RigCommand>>& excitations) {
   std::printf("### Speed\n\n");
   std::printf("Shipped models (timestep 0.25 ms, Euler), one cylinder each, driven by the reference excitation. "
@@ -266,47 +299,55 @@ bool PrintSpeed(const std::vector<std::vector<pneumatic::reference::RigCommand>>
               "(no callbacks, ctrl 0); the cost per chamber step is the extra time per mj_step over MuJoCo alone, "
               "divided by the %d chambers (rig B's spool lag included).\n\n",
               kSpeedRepeats, kSpeedSeconds, kChambers);
-  std::printf("| rig | MuJoCo alone (steps/s) | exact (steps/s) | explicit (steps/s) | exact / explicit (steps/s) "
-              "| exact: us per chamber step | explicit: us per chamber step |\n");
-  std::printf("|---|---:|---:|---:|---:|---:|---:|\n");
+  std::string header = "| rig | MuJoCo alone (steps/s) |", rule = "|---|---:|";
+  for (const StepVariant& v : kSteps) header += Format(" %s (steps/s) |", v.name), rule += "---:|";
+  for (const StepVariant& v : kSteps) header += Format(" %s: µs per chamber step |", v.name), rule += "---:|";
+  std::printf("%s\n%s\n", header.c_str(), rule.c_str());
   for (size_t r = 0; r < std::size(kRigs); ++r) {
     Rig rig = kRigs[r];
     double period = pneumatic::reference::ControlPeriod(rig);
+    // MuJoCo alone: the shipped model, never attached; each chamber step: its model, attached
     std::string error;
-    std::unique_ptr<RigModel> exact = RigModel::Load(rig, Step::kExact, &error);
-    std::unique_ptr<RigModel> explicit_step = exact ? RigModel::Load(rig, Step::kExplicit, &error) : nullptr;
-    if (!explicit_step) {
+    std::unique_ptr<RigModel> plain = RigModel::Load(rig, Step::kLinearized, &error);
+    std::array<std::unique_ptr<RigModel>, kStepCount> models;
+    for (size_t s = 0; s < kStepCount && plain; ++s) {
+      models[s] = RigModel::Load(rig, kSteps[s].step, &error);
+      if (!models[s] || !models[s]->Attach(&error)) {
+        models[s] = nullptr;
+        break;
+      }
+    }
+    if (!plain || !models[kStepCount - 1]) {
       std::fprintf(stderr, "error: %s\n", error.c_str());
       return false;
     }
 
-    // interleave the variants so that a slow phase of the machine hits all of them alike;
-    // the extension is attached only while its variant runs, so MuJoCo alone has no callbacks
-    std::vector<double> alone, with_exact, with_explicit;
-    bool diverged[2] = {false, false};
+    // interleave the variants so that a slow phase of the machine hits all of them alike
+    std::vector<double> alone;
+    std::array<std::vector<double>, kStepCount> with_step;
+    std::array<bool, kStepCount> diverged{};
     for (int repeat = 0; repeat < kSpeedRepeats; ++repeat) {
       std::fprintf(stderr, "speed: rig %s, run %d/%d\n", RigName(rig), repeat + 1, kSpeedRepeats);
-      alone.push_back(MeasureSpeed(*exact, rig, excitations[r], period, false).steps_per_second);
-      RigModel* variants[2] = {exact.get(), explicit_step.get()};
-      for (int v = 0; v < 2; ++v) {
-        if (!variants[v]->Attach(&error)) {
-          std::fprintf(stderr, "error: %s\n", error.c_str());
-          return false;
-        }
-        SpeedSample s = MeasureSpeed(*variants[v], rig, excitations[r], period, true);
-        variants[v]->Detach();
-        (v == 0 ? with_exact : with_explicit).push_back(s.steps_per_second);
-        diverged[v] |= s.diverged;
+      {
+        WithoutActuatorCallbacks no_callbacks;
+        alone.push_back(MeasureSpeed(*plain, rig, excitations[r], period, false).steps_per_second);
+      }
+      for (size_t s = 0; s < kStepCount; ++s) {
+        SpeedSample sample = MeasureSpeed(*models[s], rig, excitations[r], period, true);
+        with_step[s].push_back(sample.steps_per_second);
+        diverged[s] = diverged[s] || sample.diverged;
       }
     }
 
     // medians, and the extension's share of a step
-    double sps_alone = Median(alone), sps_exact = Median(with_exact), sps_explicit = Median(with_explicit);
-    auto per_chamber_us = [&](double sps) { return (1 / sps - 1 / sps_alone) / kChambers * 1e6; };
-    auto speed_cell = [](double sps, bool bad) { return Format("%.0f", sps) + (bad ? " (diverged)" : ""); };
-    std::printf("| %s | %.0f | %s | %s | %.2f | %.3f | %.3f |\n", RigName(rig), sps_alone,
-                speed_cell(sps_exact, diverged[0]).c_str(), speed_cell(sps_explicit, diverged[1]).c_str(),
-                sps_exact / sps_explicit, per_chamber_us(sps_exact), per_chamber_us(sps_explicit));
+    double sps_alone = Median(alone);
+    std::string row = Format("| %s | %.0f |", RigName(rig), sps_alone), costs;
+    for (size_t s = 0; s < kStepCount; ++s) {
+      double sps = Median(with_step[s]);
+      row += Format(" %.0f%s |", sps, diverged[s] ? " (diverged)" : "");
+      costs += Format(" %.3f |", (1 / sps - 1 / sps_alone) / kChambers * 1e6);
+    }
+    std::printf("%s%s\n", row.c_str(), costs.c_str());
   }
   std::printf("\n");
   return true;
@@ -370,8 +411,9 @@ ReplayError Replay(Rig rig, Step step, double dt, bool follow_motion, const pneu
   return e;
 }
 
-// errors[rig][dt][step] of one mode
-using ModeErrors = std::vector<std::vector<std::array<ReplayError, 2>>>;
+// errors[rig][dt][step] of one mode, step indexed as kSteps
+using StepErrors = std::array<ReplayError, kStepCount>;
+using ModeErrors = std::vector<std::vector<StepErrors>>;
 
 std::string PressureCell(Rig rig, const ReplayError& e) {
   if (e.skipped) return "n/a (control period)";
@@ -387,48 +429,87 @@ std::string PositionCell(const ReplayError& e) {
 
 std::string Milliseconds(double dt) { return Format("%g ms", 1e3 * dt); }
 
-// true if the exact step's pressure error beats explicit Euler's
-bool ExactBeatsExplicit(const std::array<ReplayError, 2>& e) {
-  if (e[0].diverged) return false;
-  return e[1].diverged || e[0].pressure < e[1].pressure;
+// the outcome of a check at one rig and dt; `note` is printed after the dt where it fails
+struct Verdict {
+  bool holds;
+  std::string note;
+};
+
+// linearized's pressure error is within kLinearizedTolerance of exact's (a tie if both are tiny)
+Verdict LinearizedNearExact(Rig rig, const StepErrors& e) {
+  const ReplayError& linearized = e[Index(Step::kLinearized)];
+  const ReplayError& exact = e[Index(Step::kExact)];
+  if (linearized.diverged) return {false, exact.diverged ? "both diverged" : "linearized diverged"};
+  if (exact.diverged) return {true, ""};
+  double tie = kTieFraction * PressureRange(rig);
+  if (linearized.pressure < tie && exact.pressure < tie) return {true, ""};
+  double ratio = linearized.pressure / exact.pressure;
+  return {ratio <= kLinearizedTolerance, Format("%.2fx", ratio)};
 }
 
-// one accuracy table (exact and explicit side by side) and the line that compares them
+// the exact step's pressure error beats explicit Euler's
+Verdict ExactBeatsExplicit(Rig, const StepErrors& e) {
+  const ReplayError& exact = e[Index(Step::kExact)];
+  const ReplayError& explicit_step = e[Index(Step::kExplicit)];
+  if (exact.diverged) return {false, "exact diverged"};
+  return {explicit_step.diverged || exact.pressure < explicit_step.pressure, ""};
+}
+
+// prints, as Markdown list items, where `check` holds and, plainly, where it does not:
+// "<claim> at every dt tested: ..." or "<claim> at: ..." followed by "**<negation>** at: ..."
+void PrintCheck(const ModeErrors& errors, Verdict (*check)(Rig, const StepErrors&), const char* claim,
+                const char* negation) {
+  std::string holds, fails;
+  for (size_t r = 0; r < std::size(kRigs); ++r) {
+    std::string rig_holds, rig_fails;
+    for (size_t t = 0; t < std::size(kTimesteps); ++t) {
+      const StepErrors& e = errors[r][t];
+      if (e[0].skipped) continue;
+      Verdict v = check(kRigs[r], e);
+      std::string& list = v.holds ? rig_holds : rig_fails;
+      list += (list.empty() ? "" : ", ") + Milliseconds(kTimesteps[t]);
+      if (!v.holds && !v.note.empty()) list += " (" + v.note + ")";
+    }
+    std::string rig = std::string("rig ") + RigName(kRigs[r])[0];
+    if (!rig_holds.empty()) holds += (holds.empty() ? "" : "; ") + rig + " at " + rig_holds;
+    if (!rig_fails.empty()) fails += (fails.empty() ? "" : "; ") + rig + " at " + rig_fails;
+  }
+  if (fails.empty()) {
+    std::printf("- %s at every dt tested: %s.\n", claim, holds.c_str());
+  } else {
+    std::printf("- %s at: %s.\n", claim, holds.empty() ? "no dt" : holds.c_str());
+    std::printf("- **%s** at: %s.\n", negation, fails.c_str());
+  }
+}
+
+// one accuracy table (the chamber steps side by side) and the checks that compare them
 void PrintAccuracy(const char* title, const char* protocol, bool open_loop, const ModeErrors& errors) {
   std::printf("#### %s\n\n%s\n\n", title, protocol);
-  std::printf("| rig | dt | pressure error, exact | pressure error, explicit |");
-  if (open_loop) std::printf(" x error (mm), exact | x error (mm), explicit |");
-  std::printf("\n|---|---:|---:|---:|%s\n", open_loop ? "---:|---:|" : "");
+  std::string header = "| rig | dt |", rule = "|---|---:|";
+  for (const StepVariant& v : kSteps) header += Format(" pressure error, %s |", v.name), rule += "---:|";
+  if (open_loop) {
+    for (const StepVariant& v : kSteps) header += Format(" x error (mm), %s |", v.name), rule += "---:|";
+  }
+  std::printf("%s\n%s\n", header.c_str(), rule.c_str());
   for (size_t r = 0; r < std::size(kRigs); ++r) {
     for (size_t t = 0; t < std::size(kTimesteps); ++t) {
-      const auto& e = errors[r][t];
-      std::printf("| %s | %s | %s | %s |", RigName(kRigs[r]), Milliseconds(kTimesteps[t]).c_str(),
-                  PressureCell(kRigs[r], e[0]).c_str(), PressureCell(kRigs[r], e[1]).c_str());
-      if (open_loop) std::printf(" %s | %s |", PositionCell(e[0]).c_str(), PositionCell(e[1]).c_str());
-      std::printf("\n");
+      const StepErrors& e = errors[r][t];
+      std::string row = "| " + std::string(RigName(kRigs[r])) + " | " + Milliseconds(kTimesteps[t]) + " |";
+      for (const ReplayError& step : e) row += " " + PressureCell(kRigs[r], step) + " |";
+      if (open_loop) {
+        for (const ReplayError& step : e) row += " " + PositionCell(step) + " |";
+      }
+      std::printf("%s\n", row.c_str());
     }
   }
 
-  // where exact beats explicit, and plainly where it does not
-  std::string wins, losses;
-  for (size_t r = 0; r < std::size(kRigs); ++r) {
-    std::string rig_wins, rig_losses;
-    for (size_t t = 0; t < std::size(kTimesteps); ++t) {
-      const auto& e = errors[r][t];
-      if (e[0].skipped) continue;
-      std::string& list = ExactBeatsExplicit(e) ? rig_wins : rig_losses;
-      list += (list.empty() ? "" : ", ") + Milliseconds(kTimesteps[t]);
-    }
-    std::string rig = std::string("rig ") + RigName(kRigs[r])[0];
-    if (!rig_wins.empty()) wins += (wins.empty() ? "" : "; ") + rig + " at " + rig_wins;
-    if (!rig_losses.empty()) losses += (losses.empty() ? "" : "; ") + rig + " at " + rig_losses;
-  }
-  if (losses.empty()) {
-    std::printf("\nExact beats explicit Euler in pressure at every dt tested: %s.\n\n", wins.c_str());
-  } else {
-    std::printf("\nExact beats explicit Euler in pressure at: %s.\n", wins.empty() ? "no dt" : wins.c_str());
-    std::printf("**Exact does NOT beat explicit Euler** in pressure at: %s.\n\n", losses.c_str());
-  }
+  std::printf("\n");
+  std::string claim = Format("Linearized within %gx of exact in pressure", kLinearizedTolerance);
+  std::string negation = Format("Linearized NOT within %gx of exact", kLinearizedTolerance);
+  PrintCheck(errors, LinearizedNearExact, claim.c_str(), negation.c_str());
+  PrintCheck(errors, ExactBeatsExplicit, "Exact beats explicit Euler in pressure",
+             "Exact does NOT beat explicit Euler in pressure");
+  std::printf("\n");
 }
 
 }  // namespace
@@ -472,14 +553,13 @@ int main() {
     Rig rig = kRigs[r];
     std::fprintf(stderr, "accuracy: rig %s\n", RigName(rig));
     for (double dt : kTimesteps) {
-      std::array<ReplayError, 2> loop, along;
-      for (Step step : {Step::kExact, Step::kExplicit}) {
-        int s = static_cast<int>(step);
-        loop[s] = Replay(rig, step, dt, false, references[r]);
-        along[s] = Replay(rig, step, dt, true, references[r]);
+      StepErrors loop, along;
+      for (size_t s = 0; s < kStepCount; ++s) {
+        loop[s] = Replay(rig, kSteps[s].step, dt, false, references[r]);
+        along[s] = Replay(rig, kSteps[s].step, dt, true, references[r]);
         for (const ReplayError* e : {&loop[s], &along[s]}) {
           if (e->diverged) {
-            std::fprintf(stderr, "  %s at %s, %s: diverged: %s\n", StepName(step), Milliseconds(dt).c_str(),
+            std::fprintf(stderr, "  %s at %s, %s: diverged: %s\n", kSteps[s].name, Milliseconds(dt).c_str(),
                          e == &loop[s] ? "open loop" : "along the motion", e->reason.c_str());
           }
         }
@@ -494,13 +574,16 @@ int main() {
               "dt divides the command period; it took %.2f s (A), %.2f s (B), %.2f s (C), and the piston used "
               "%.0f %%, %.0f %%, %.0f %% of its half stroke. "
               "Errors are the max |p_sim - p_ref| over both chambers and every command period, in %% of "
-              "supply - exhaust (A %g, B %g, C %g Pa), and the max |x_sim - x_ref|. \"exact\" is the extension's "
-              "semi-analytic chamber step (step=exact, the default), \"explicit\" MuJoCo's plain explicit Euler on the "
-              "same equations (step=explicit).\n\n",
+              "supply - exhaust (A %g, B %g, C %g Pa), and the max |x_sim - x_ref|. \"linearized\" is the extension's "
+              "default chamber step (an exponential step with the flow linearised in conductance form and an adaptive "
+              "fallback), \"exact\" its former default (step=exact: adaptive implicit backward Euler with Richardson "
+              "extrapolation), \"explicit\" MuJoCo's plain explicit Euler on the same equations (step=explicit). "
+              "Linearized counts as within %gx of exact where its pressure error is at most %g times exact's or both "
+              "are below %g %%.\n\n",
               kReferenceStep * 1e6, kReferenceSeconds, kReferenceSeed, kAccuracyPeriod * 1e3, reference_seconds[0],
               reference_seconds[1], reference_seconds[2], 100 * stroke_used[0], 100 * stroke_used[1],
               100 * stroke_used[2], PressureRange(Rig::kOnOff), PressureRange(Rig::kProportional),
-              PressureRange(Rig::kPerChamber));
+              PressureRange(Rig::kPerChamber), kLinearizedTolerance, kLinearizedTolerance, 100 * kTieFraction);
   PrintAccuracy("Open loop", "The whole rig is simulated: MuJoCo's semi-implicit Euler mechanics and the chamber step.",
                 true, open_loop);
   PrintAccuracy("Along the reference's motion",

@@ -160,46 +160,59 @@ double Phi2Slope(double x) {
   return std::fabs(x) < 1e-2 ? 1.0 / 6 + x / 12 + x * x / 40 : (x * std::exp(x) - 2 * std::expm1(x) + x) / (x * x * x);
 }
 
-// conductance of one port at chamber pressure p: the chord G = Q(p_port -> p) / (p_port - p) >= 0,
-// the project's own form. The laws' slope is infinite where the pressures meet; there the chord is
-// taken over a small difference, and its large G settles the chamber at p_port within the step.
-double PortConductance(const FlowLawConstants& law, double opening, double p_port, double p) {
-  if (opening <= 0) return 0;
-  double dp = p_port - p;
+// One port's flow into a chamber at pressure p, and its conductance G >= 0 for the stiff part
+// of the step: the flow's slope, G = -dQ/dp (exponential Rosenbrock).
+struct PortFlow {
+  double flow = 0;         // kg/s into the chamber
+  double conductance = 0;  // kg/(s Pa)
+};
+
+PortFlow Port(const FlowLawConstants& law, double opening, double p_port, double p) {
+  PortFlow out;
+  if (opening <= 0) return out;
+  double slope = 0;
+  out.flow = MassFlowAndSlope(law, opening, p_port, p, &slope);
+  out.conductance = -slope;
+  return out;
+}
+
+// Where the chamber is closer to the port's pressure than the flow moves it over the substep
+// (`travel`, Pa), the slope grows without bound (Q ~ sqrt|p_port - p|): the chord from the port
+// pressure to p + travel stands in for it (the project's own choice).
+void UseChordNearThePort(const FlowLawConstants& law, double opening, double p_port, double p, double travel,
+                         PortFlow* port) {
+  if (opening <= 0 || std::fabs(p_port - p) > std::fabs(travel)) return;
+  double dp = p_port - (p + travel);
   double smallest = 1e-9 * p_port;
   if (std::fabs(dp) < smallest) dp = smallest;
-  return MassFlow(law, opening, p_port, p_port - dp) / dp;
+  port->conductance = MassFlow(law, opening, p_port, p_port - dp) / dp;
 }
 
-// a chamber's flow with frozen conductances: Q = source - conductance p (leak to the piston apart)
-struct LinearFlow {
-  double conductance = 0;  // kg/(s Pa)
-  double source = 0;       // kg/s
-};
-
-LinearFlow Linearize(const ChamberModel& k, const PortOpenings& o, double p) {
-  double supply = PortConductance(k.flow, o.supply, k.p_supply, p);
-  double exhaust = PortConductance(k.flow, o.exhaust, k.p_exhaust, p);
-  return {supply + exhaust + k.atmosphere_leak,
-          supply * k.p_supply + exhaust * k.p_exhaust + k.atmosphere_leak * k.p_atm};
-}
-
-// dp/dt = B p + f of both chambers, with D = n r T / V (paper 000 eq. 4a with the flow linear in p)
+// the chambers' pressure rates, and their stiff linear part B: the exponential step treats
+// dp/dt = B p + N(p) (paper 000 eq. 4a), with B from the compression rate, and from the port
+// conductances and the leaks times D = n r T / V, and N the remainder
 struct LinearSystem {
   double b[2][2] = {{0, 0}, {0, 0}};
-  double f[2] = {0, 0};
-  double Rate(int i, const double p[2]) const { return b[i][0] * p[0] + b[i][1] * p[1] + f[i]; }
+  double rate[2] = {0, 0};  // dp/dt at the pressures the system was built at (Pa/s)
 };
 
-LinearSystem System(const ChamberModel k[2], const PortOpenings o[2], const double volume[2], double piston_leak,
-                    const double p[2]) {
+LinearSystem System(int n, const ChamberModel k[], const PortOpenings o[], const double volume[],
+                    const double compression[], double piston_leak, const double p[], double substep) {
   LinearSystem s;
-  for (int i = 0; i < 2; ++i) {
-    double d = k[i].polytropic_index * k[i].gas_rt / volume[i];
-    LinearFlow q = Linearize(k[i], o[i], p[i]);
-    s.b[i][i] = -d * (q.conductance + piston_leak);
-    s.b[i][1 - i] = d * piston_leak;
-    s.f[i] = d * q.source;
+  for (int i = 0; i < n; ++i) {
+    const ChamberModel& c = k[i];
+    double d = c.polytropic_index * c.gas_rt / volume[i];
+    double p_other = n == 2 ? p[1 - i] : p[i];
+    PortFlow supply = Port(c.flow, o[i].supply, c.p_supply, p[i]);
+    PortFlow exhaust = Port(c.flow, o[i].exhaust, c.p_exhaust, p[i]);
+    // the laminar leaks (the project's own form) are linear: their conductance is exact
+    double flow = supply.flow + exhaust.flow + c.atmosphere_leak * (c.p_atm - p[i]) + piston_leak * (p_other - p[i]);
+    double travel = substep * d * flow;
+    UseChordNearThePort(c.flow, o[i].supply, c.p_supply, p[i], travel, &supply);
+    UseChordNearThePort(c.flow, o[i].exhaust, c.p_exhaust, p[i], travel, &exhaust);
+    s.b[i][i] = compression[i] - d * (supply.conductance + exhaust.conductance + c.atmosphere_leak + piston_leak);
+    if (n == 2) s.b[i][1 - i] = d * piston_leak;
+    s.rate[i] = compression[i] * p[i] + d * flow;
   }
   return s;
 }
@@ -207,11 +220,11 @@ LinearSystem System(const ChamberModel k[2], const PortOpenings o[2], const doub
 // phi(B t) v for a function phi of the 2x2 matrix B t: phi(l2) v + phi[l1, l2] (B - l2 I) v
 // (Newton's form, exact for 2x2), with the eigenvalues l1 >= l2 of B, real and <= 0 (B is similar
 // to a symmetric negative semidefinite matrix); phi_slope is phi' for near-equal eigenvalues
-void ApplyMatrixFunction(double (*phi)(double), double (*phi_slope)(double), const LinearSystem& s, double t,
-                         const double v[2], double out[2]) {
-  if (s.b[0][1] == 0 && s.b[1][0] == 0) {
+void ApplyMatrixFunction(int n, double (*phi)(double), double (*phi_slope)(double), const LinearSystem& s, double t,
+                         const double v[], double out[]) {
+  if (n == 1 || (s.b[0][1] == 0 && s.b[1][0] == 0)) {
     // uncoupled chambers: one scalar function each
-    for (int i = 0; i < 2; ++i) out[i] = phi(s.b[i][i] * t) * v[i];
+    for (int i = 0; i < n; ++i) out[i] = phi(s.b[i][i] * t) * v[i];
     return;
   }
   double half_trace = (s.b[0][0] + s.b[1][1]) / 2;
@@ -240,66 +253,61 @@ double CompressionFactor(double v_from, double v_to, double exponent) {
   return sum;
 }
 
+// the linearized step holds where the flow's slope changes by at most this fraction over the step
+constexpr double kMaxSlopeChange = 0.25;
+
 // a chamber's pressure kept within what it can reach from its compressed pressure
-double KeepReachable(const ChamberModel k[2], int i, const double compressed[2], double piston_leak, double p) {
-  Range range = ReachableRange(k[i], compressed[i], piston_leak, compressed[1 - i]);
+double KeepReachable(const ChamberModel k[], int i, const double compressed[], double piston_leak, double p) {
+  Range range = ReachableRange(k[i], compressed[i], piston_leak, piston_leak > 0 ? compressed[1 - i] : 0);
   return std::clamp(p, range.lo, range.hi);
 }
 
 }  // namespace
 
-int LinearizedPressureStep(const ChamberModel k[2], const PortSchedule* ports[2], const VolumePath volume[2],
-                           double piston_leak, const double p0[2], double h, double p1[2]) {
-  // substeps end at every valve switching instant of either chamber
-  SwitchInstants ends = MergedBreakpoints(*ports[0], *ports[1]);
-  ends.push_back(h);
-  const double min_substep = h / 4096;
-  const double tolerance = std::min(k[0].tolerance, k[1].tolerance);
-  double p[2] = {p0[0], p0[1]};
-  double tau = 0, substep = h;
-  int substeps = 0;
-  for (double end : ends) {
-    while (tau < end) {
-      double next = std::min(tau + substep, end);
-      if (end - next < 1e-12 * h) next = end;
-      double s = next - tau, mid = tau + s / 2;
-      ++substeps;
-      // half the compression (exact in y = p V^(alpha n)), the flow over the whole substep, the other half
-      double v_start[2], v_mid[2], v_end[2], exponent[2], compressed[2];
-      PortOpenings at_mid[2];
-      for (int i = 0; i < 2; ++i) {
-        v_start[i] = volume[i].At(tau), v_mid[i] = volume[i].At(mid), v_end[i] = volume[i].At(next);
-        exponent[i] = k[i].work_factor * k[i].polytropic_index;
-        compressed[i] = v_start[i] == v_mid[i] ? p[i] : p[i] * CompressionFactor(v_start[i], v_mid[i], exponent[i]);
-        at_mid[i] = ports[i]->At(mid);
-      }
-      // exponential Euler with the conductances frozen at the start: exact for the linear system
-      LinearSystem system = System(k, at_mid, v_mid, piston_leak, compressed);
-      double rate[2] = {system.Rate(0, compressed), system.Rate(1, compressed)}, change[2], flowed[2];
-      ApplyMatrixFunction(Phi1, Phi1Slope, system, s, rate, change);
-      for (int i = 0; i < 2; ++i) flowed[i] = KeepReachable(k, i, compressed, piston_leak, compressed[i] + s * change[i]);
-      // second-order correction (ETD2RK, Cox and Matthews 2002): s phi2(B s) times the rate the frozen
-      // conductances miss at the predicted end; its size is the local error estimate of the first-order step
-      LinearSystem at_end = System(k, at_mid, v_mid, piston_leak, flowed);
-      double missed[2], correction[2];
-      for (int i = 0; i < 2; ++i) missed[i] = at_end.Rate(i, flowed) - system.Rate(i, flowed);
-      ApplyMatrixFunction(Phi2, Phi2Slope, system, s, missed, correction);
-      double error = std::max(std::fabs(s * correction[0]), std::fabs(s * correction[1]));
-      if (!(error <= tolerance) && substep > min_substep) {
-        substep = std::max(s * std::max(0.2, 0.9 * std::sqrt(tolerance / error)), min_substep);
-        continue;
-      }
-      for (int i = 0; i < 2; ++i) flowed[i] = KeepReachable(k, i, compressed, piston_leak, flowed[i] + s * correction[i]);
-      for (int i = 0; i < 2; ++i) {
-        p[i] = v_mid[i] == v_end[i] ? flowed[i] : flowed[i] * CompressionFactor(v_mid[i], v_end[i], exponent[i]);
-      }
-      tau = next;
-      double grow = error > 0 ? 0.9 * std::sqrt(tolerance / error) : 4.0;
-      substep = std::max(s * std::clamp(grow, 0.2, 4.0), min_substep);
-    }
+bool LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* ports[], const VolumePath volume[],
+                            double piston_leak, const double p0[], double h, double p1[]) {
+  if (n == 1) piston_leak = 0;
+  // a valve switching within the step: the adaptive step splits there
+  for (int i = 0; i < n; ++i) {
+    if (!ports[i]->breakpoints().empty()) return false;
   }
-  p1[0] = p[0], p1[1] = p[1];
-  return substeps;
+  // the polytropic compression as a constant rate, -alpha n ln(V(h)/V(0)) / h, so that a sealed chamber
+  // follows p V^(alpha n) exactly; the flow term with the volume at mid-step
+  double v_mid[2] = {1, 1}, compression[2] = {0, 0}, compressed[2] = {0, 0};
+  PortOpenings open_start[2], open_end[2];
+  for (int i = 0; i < n; ++i) {
+    double v_start = volume[i].At(0), v_end = volume[i].At(h), exponent = k[i].work_factor * k[i].polytropic_index;
+    v_mid[i] = volume[i].At(h / 2);
+    if (v_end != v_start) compression[i] = -exponent * std::log1p((v_end - v_start) / v_start) / h;
+    compressed[i] = v_end == v_start ? p0[i] : p0[i] * CompressionFactor(v_start, v_end, exponent);
+    open_start[i] = ports[i]->At(0), open_end[i] = ports[i]->At(h);
+  }
+  // exponential Rosenbrock-Euler: p + h phi1(B h) rate, B the slope (exact where the flow is linear)
+  LinearSystem start = System(n, k, open_start, v_mid, compression, piston_leak, p0, h);
+  double change[2] = {0, 0}, predicted[2] = {0, 0};
+  ApplyMatrixFunction(n, Phi1, Phi1Slope, start, h, start.rate, change);
+  for (int i = 0; i < n; ++i) predicted[i] = KeepReachable(k, i, compressed, piston_leak, p0[i] + h * change[i]);
+  // second-order correction (ETD2RK, Cox and Matthews 2002): h phi2(B h) times the change of the
+  // remainder N = rate - B p over the step, valve openings moving from their start to their end
+  // value (a spool)
+  LinearSystem at_end = System(n, k, open_end, v_mid, compression, piston_leak, predicted, h);
+  double missed[2] = {0, 0}, correction[2] = {0, 0};
+  for (int i = 0; i < n; ++i) {
+    double linear_change = start.b[i][0] * (predicted[0] - p0[0]) + (n == 2 ? start.b[i][1] * (predicted[1] - p0[1]) : 0);
+    missed[i] = at_end.rate[i] - start.rate[i] - linear_change;
+  }
+  ApplyMatrixFunction(n, Phi2, Phi2Slope, start, h, missed, correction);
+  const double tolerance = n == 2 ? std::min(k[0].tolerance, k[1].tolerance) : k[0].tolerance;
+  for (int i = 0; i < n; ++i) {
+    // error indicators: the correction (ETD1's local error), half the step times the remainder's change
+    // (which stiffness would hide from the correction), and how far the slope changed over the step:
+    // near a port pressure the laws go as sqrt, and a linearization holds for a short way only
+    double error = std::max(std::fabs(h * correction[i]), std::fabs(h / 2 * missed[i]));
+    double b_start = compression[i] - start.b[i][i], b_end = compression[i] - at_end.b[i][i];
+    if (!(error <= tolerance) || std::fabs(b_end - b_start) > kMaxSlopeChange * std::max(b_start, b_end)) return false;
+  }
+  for (int i = 0; i < n; ++i) p1[i] = KeepReachable(k, i, compressed, piston_leak, predicted[i] + h * correction[i]);
+  return true;
 }
 
 SteadyStateAndRate IdentifiedModel(const IdentifiedParams& c, double u, double v, double v_rate) {

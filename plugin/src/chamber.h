@@ -65,21 +65,21 @@ double PressureRate(const ChamberModel& k, const PortOpenings& o, double p, doub
 double PhysicalPressureStep(const ChamberModel& k, const PortSchedule& ports, const VolumePath& volume,
                             double p0, double h, double piston_leak = 0, double p_other = 0);
 
-// Pressures (Pa abs) of both chambers of a cylinder (0 = P, 1 = N) at the end of a step
-// of length h from p0: the default step. Each port's flow is written in conductance form,
-// Q = G(p) (p_port - p) with G the chord of the flow law between p and p_port (the
-// project's own form), so that with G frozen the flow is linear in p and every leak
-// couples in: dp/dt = B p + f. Over a substep the polytropic compression is exact
-// (Strang split: half the volume change, the flow, the other half), and the linear
-// flow part is solved exactly, p + s phi1(B s) (B p + f): the exponential step of
-// paper 000 eq. (7), p' = (s - p) r, with s and r from the chords. A second-order
-// correction s phi2(B s) N (ETD2RK) adds the rate N the frozen conductances miss at
-// the substep's end; its size is the local error estimate, and a substep whose
-// estimate exceeds k.tolerance is split (the adaptive fallback). Substeps end at
-// valve switching instants, and valve openings are taken at each substep's middle.
-// The result lies in the reachable range. Returns the number of substeps tried.
-int LinearizedPressureStep(const ChamberModel k[2], const PortSchedule* ports[2], const VolumePath volume[2],
-                           double piston_leak, const double p0[2], double h, double p1[2]);
+// The default step: pressures (Pa abs) of n chambers (1, or 2: a cylinder's P and N,
+// coupled by the leak across the piston) at the end of a step of length h from p0.
+// The polytropic compression enters as the constant rate -alpha n ln(V(h)/V(0)) / h,
+// so a sealed chamber follows p V^(alpha n) exactly. The flow is split into a stiff
+// linear part, B = the slope dQ/dp of each port's law and the leaks (times
+// n r T / V at mid-step), and a remainder; the linear part is solved exactly, p + h phi1(B h) rate (exponential Rosenbrock-Euler:
+// the exponential step of paper 000 eq. (7), p' = (s - p) r, with r and s from the
+// slope), and a second-order correction h phi2(B h) adds the remainder's change over
+// the step (ETD2RK). Near a port pressure, where the laws go as sqrt, the slope is
+// replaced by the chord over the pressure change the flow makes in the step.
+// Returns false, leaving p1 unset, where the step cannot be trusted and the adaptive
+// PhysicalPressureStep must take over: a valve switching within the step, a local
+// error indicator above k.tolerance, or a slope that changes by more than a quarter.
+bool LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* ports[], const VolumePath volume[],
+                            double piston_leak, const double p0[], double h, double p1[]);
 
 // paper 000 eq. (10): steady-state pressure s (Pa abs) and rate r (1/s) at
 // command u (V), volume sensor v = x and its rate

@@ -79,8 +79,11 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
     int id = mj_name2id(m, mjOBJ_ACTUATOR, full.c_str());
     if (id < 0) return fail(full, "missing: each cylinder needs actuators '" + name + ".P' and '" + name + ".N'");
     if (m->actuator_dyntype[id] != mjDYN_USER) return fail(full, "needs dyntype=\"user\" (its act is the chamber's gauge pressure)");
-    // user as written in MJCF; fixed once attached (WriteGains)
-    if (m->actuator_gaintype[id] != mjGAIN_USER && !(gains_written && m->actuator_gaintype[id] == mjGAIN_FIXED)) {
+    // user as written in MJCF; fixed once attached (WriteGains: +A_P, -A_N)
+    double area_gain = k == 0 ? cfg.chamber[0].area : -cfg.chamber[1].area;
+    bool fixed = m->actuator_gaintype[id] == mjGAIN_FIXED;
+    if (!(m->actuator_gaintype[id] == mjGAIN_USER || (fixed && gains_written) ||
+          (fixed && m->actuator_gainprm[id * mjNGAIN] == area_gain))) {
       return fail(full, "needs gaintype=\"user\" (force = area * gauge pressure)");
     }
     if (m->actuator_biastype[id] != mjBIAS_NONE) return fail(full, "needs biastype=\"none\"");
@@ -273,23 +276,29 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass) const {
   if (physical[0] || physical[1]) {
     PortSchedule ports[2] = {{config_, 0, valves}, {config_, 1, valves}};
     VolumePath volume[2] = {Volume(m, d, 0, x_rate), Volume(m, d, 1, x_rate)};
-    if (config_.step == ChamberStep::kLinearized && physical[0] && physical[1]) {
-      // both chambers together: the leak across the piston couples them
+    // the linearized step: both chambers together when the leak across the piston couples them
+    bool done[2] = {false, false};
+    if (config_.step == ChamberStep::kLinearized) {
       const PortSchedule* schedules[2] = {&ports[0], &ports[1]};
-      LinearizedPressureStep(chamber_model_, schedules, volume, leak, p0, h, p1);
-      for (int k = 0; k < 2; ++k) rate[k] = (p1[k] - p0[k]) / h;
-    } else {
-      // chamber by chamber, the leak across the piston from the other chamber's pressure at the start
-      for (int k = 0; k < 2; ++k) {
-        if (!physical[k]) continue;
-        if (config_.step == ChamberStep::kExplicit) {
-          rate[k] = PressureRate(chamber_model_[k], ports[k].At(0), p0[k], volume[k].At(0), volume[k].RateAt(0),
-                                 leak, p0[1 - k]);
-        } else {
-          p1[k] = PhysicalPressureStep(chamber_model_[k], ports[k], volume[k], p0[k], h, leak, p0[1 - k]);
-          rate[k] = (p1[k] - p0[k]) / h;
+      if (leak > 0 && physical[0] && physical[1]) {
+        done[0] = done[1] = LinearizedPressureStep(2, chamber_model_, schedules, volume, leak, p0, h, p1);
+      } else {
+        for (int k = 0; k < 2; ++k) {
+          if (physical[k]) done[k] = LinearizedPressureStep(1, &chamber_model_[k], &schedules[k], &volume[k], 0, &p0[k], h, &p1[k]);
         }
       }
+    }
+    // the adaptive implicit step (step=exact, or where the linearized step asks for it), chamber by chamber
+    // with the leak across the piston from the other chamber's pressure at the start; or explicit Euler
+    for (int k = 0; k < 2; ++k) {
+      if (!physical[k]) continue;
+      if (config_.step == ChamberStep::kExplicit) {
+        rate[k] = PressureRate(chamber_model_[k], ports[k].At(0), p0[k], volume[k].At(0), volume[k].RateAt(0), leak,
+                               p0[1 - k]);
+        continue;
+      }
+      if (!done[k]) p1[k] = PhysicalPressureStep(chamber_model_[k], ports[k], volume[k], p0[k], h, leak, p0[1 - k]);
+      rate[k] = (p1[k] - p0[k]) / h;
     }
   }
   for (int k = 0; k < 2; ++k) ActDot(m, d, info_.chamber_actuator[k]) = rate[k];

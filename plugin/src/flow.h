@@ -37,6 +37,10 @@ FlowLawConstants ThinPlateConstants(double discharge_coefficient, double kappa, 
 // of the given opening (C_val for iso6358, area for the others).
 double MassFlow(const FlowLawConstants& law, double opening, double p_from, double p_to);
 
+// MassFlow and its derivative by p_to (kg/(s Pa), <= 0): the flow's slope seen from the
+// downstream side; it grows without bound as the two pressures meet
+double MassFlowAndSlope(const FlowLawConstants& law, double opening, double p_from, double p_to, double* slope_to);
+
 }  // namespace pneumatic
 
 #endif  // PNEUMATIC_FLOW_H_
