@@ -156,6 +156,15 @@ double Phi1Slope(double x) {
   return std::fabs(x) < 1e-3 ? 0.5 + x / 3 + x * x / 8 : (std::exp(x) * (x - 1) + 1) / (x * x);
 }
 double Phi2(double x) { return std::fabs(x) < 1e-3 ? 0.5 + x / 6 + x * x / 24 : (std::expm1(x) - x) / (x * x); }
+// phi1(x) and phi2(x) from one exponential
+void Phi1And2(double x, double* phi1, double* phi2) {
+  if (std::fabs(x) < 1e-3) {
+    *phi1 = 1 + x / 2 + x * x / 6, *phi2 = 0.5 + x / 6 + x * x / 24;
+    return;
+  }
+  double e = std::expm1(x);
+  *phi1 = e / x, *phi2 = (e - x) / (x * x);
+}
 double Phi2Slope(double x) {
   return std::fabs(x) < 1e-2 ? 1.0 / 6 + x / 12 + x * x / 40 : (x * std::exp(x) - 2 * std::expm1(x) + x) / (x * x * x);
 }
@@ -284,8 +293,14 @@ bool LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* p
   }
   // exponential Rosenbrock-Euler: p + h phi1(B h) rate, B the slope (exact where the flow is linear)
   LinearSystem start = System(n, k, open_start, v_mid, compression, piston_leak, p0, h);
-  double change[2] = {0, 0}, predicted[2] = {0, 0};
-  ApplyMatrixFunction(n, Phi1, Phi1Slope, start, h, start.rate, change);
+  double change[2] = {0, 0}, predicted[2] = {0, 0}, phi1 = 1, phi2 = 0.5;
+  if (n == 1) {
+    // one chamber: the scalar functions of b h, from one exponential
+    Phi1And2(start.b[0][0] * h, &phi1, &phi2);
+    change[0] = phi1 * start.rate[0];
+  } else {
+    ApplyMatrixFunction(n, Phi1, Phi1Slope, start, h, start.rate, change);
+  }
   for (int i = 0; i < n; ++i) predicted[i] = KeepReachable(k, i, compressed, piston_leak, p0[i] + h * change[i]);
   // second-order correction (ETD2RK, Cox and Matthews 2002): h phi2(B h) times the change of the
   // remainder N = rate - B p over the step, valve openings moving from their start to their end
@@ -296,7 +311,11 @@ bool LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* p
     double linear_change = start.b[i][0] * (predicted[0] - p0[0]) + (n == 2 ? start.b[i][1] * (predicted[1] - p0[1]) : 0);
     missed[i] = at_end.rate[i] - start.rate[i] - linear_change;
   }
-  ApplyMatrixFunction(n, Phi2, Phi2Slope, start, h, missed, correction);
+  if (n == 1) {
+    correction[0] = phi2 * missed[0];
+  } else {
+    ApplyMatrixFunction(n, Phi2, Phi2Slope, start, h, missed, correction);
+  }
   const double tolerance = n == 2 ? std::min(k[0].tolerance, k[1].tolerance) : k[0].tolerance;
   for (int i = 0; i < n; ++i) {
     // error indicators: the correction (ETD1's local error), half the step times the remainder's change

@@ -30,6 +30,7 @@ FlowLawConstants ThinPlateConstants(double discharge_coefficient, double kappa, 
   FlowLawConstants c;
   c.law = FlowLaw::kThinPlate;
   c.kappa = kappa;
+  c.kappa_inverse = 1 / kappa;
   // paper 000 Appendix eqs. (11), (12), (13)
   c.alpha = discharge_coefficient * std::sqrt(2 / zrt * kappa / (kappa - 1));
   c.beta = discharge_coefficient *
@@ -52,7 +53,7 @@ double ForwardFlow(const FlowLawConstants& law, double opening, double pu, doubl
       *d_pu = opening * law.beta;
       return opening * law.beta * pu;
     }
-    double q = std::pow(ratio, 1 / law.kappa);  // ratio^(1/kappa)
+    double q = std::exp(std::log(ratio) * law.kappa_inverse);  // ratio^(1/kappa), cheaper than pow
     double radicand = std::max(q * q - ratio * q, 0.0);  // ratio^(2/kappa) - ratio^((kappa+1)/kappa)
     double root = std::sqrt(radicand);
     if (root > 0) {

@@ -17,7 +17,7 @@ struct FlowLawConstants {
   double gain = 0;            // iso6358: 1 (opening is C_val); sanville: C1 C_d / sqrt(T), s/m
   double critical_ratio = 0;  // b, P_cr
   // thin plate (paper 000 eq. 1c and Appendix eqs. 11-13)
-  double alpha = 0, beta = 0, theta = 0, kappa = 0;
+  double alpha = 0, beta = 0, theta = 0, kappa = 0, kappa_inverse = 0;
 };
 
 // ISO 6358 law (paper 002 eq. 4, paper 003 eq. 3): opening = C_val, kg/(s Pa).
