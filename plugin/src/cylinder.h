@@ -49,6 +49,12 @@ class Cylinder {
   const CylinderInfo& info() const { return info_; }
   // (actuator id, role) of every actuator of this cylinder
   const std::vector<std::pair<int, ActuatorRole>>& actuators() const { return actuators_; }
+  // what the binding read from the model besides actuator ids (for the model's fingerprint)
+  struct Binding {
+    int dof = -1;
+    double static_friction = 0;
+  };
+  Binding binding() const { return {dof_, static_friction_}; }
   // true if a step of this cylinder follows the piston's predicted end-of-step velocity
   bool NeedsEndVelocity() const;
 

@@ -70,15 +70,16 @@ bool IsTagged(const mjModel* m, int id) {
   return user && (user[kTagSlot] == kMemberTag || user[kTagSlot] == kHomeTag);
 }
 
-// FNV-1a over the bytes of every cylinder's name, packed configuration and actuator ids; 52 bits,
-// so that a double holds it exactly
-double Fingerprint(const std::vector<Cylinder>& cylinders, int nu) {
+// FNV-1a over the bytes of everything a decoding takes from the model: every cylinder's name,
+// packed configuration, actuator ids and roles, and its transmission (type, target, gear, the
+// joint's dof and frictionloss); 52 bits, so that a double holds it exactly
+double Fingerprint(const mjModel* m, const std::vector<Cylinder>& cylinders) {
   uint64_t hash = 1469598103934665603ULL;
   auto mix = [&](const void* data, size_t size) {
     const unsigned char* bytes = static_cast<const unsigned char*>(data);
     for (size_t i = 0; i < size; ++i) hash = (hash ^ bytes[i]) * 1099511628211ULL;
   };
-  mix(&nu, sizeof(nu));
+  mix(&m->nu, sizeof(m->nu));
   std::vector<double> packed(PackedConfigSize());
   for (const Cylinder& c : cylinders) {
     mix(c.info().name.data(), c.info().name.size());
@@ -89,6 +90,13 @@ double Fingerprint(const std::vector<Cylinder>& cylinders, int nu) {
       mix(&role.role, sizeof(role.role));
       mix(&role.index, sizeof(role.index));
     }
+    int p = c.info().chamber_actuator[0];
+    mix(m->actuator_trntype + p, sizeof(int));
+    mix(m->actuator_trnid + 2 * p, 2 * sizeof(int));
+    mix(m->actuator_gear + 6 * p, 6 * sizeof(mjtNum));
+    Cylinder::Binding binding = c.binding();
+    mix(&binding.dof, sizeof(binding.dof));  // field by field: no padding bytes
+    mix(&binding.static_friction, sizeof(binding.static_friction));
   }
   return static_cast<double>(hash & ((uint64_t{1} << 52) - 1));
 }
@@ -105,7 +113,7 @@ std::unique_ptr<CompiledModel> Finish(const mjModel* m, std::vector<Cylinder> cy
     }
     model->predicts_velocity |= cylinders[c].NeedsEndVelocity();
   }
-  model->fingerprint = Fingerprint(cylinders, m->nu);
+  model->fingerprint = Fingerprint(m, cylinders);
   model->cylinders = std::move(cylinders);
   return model;
 }
