@@ -425,6 +425,32 @@ TEST_F(ConfigTest, RejectsIdentifiedVolumeScaleThatVanishesWithinTheStroke) {
   ExpectAttaches(Identified().Set("c6", "19.9"));
 }
 
+TEST_F(ConfigTest, RejectsCriticalRatioWithThinPlateFlow) {
+  // critical_ratio is b of iso6358 and P_cr of sanville; the thin-plate law has none to set
+  ExpectKeyRejected(OnOffThinPlate().Set("critical_ratio", "0.3"), "P.critical_ratio",
+                    "applies only to flow=iso6358 or flow=sanville");
+  ExpectKeyRejected(OnOffThinPlate().Set("N.critical_ratio", "0.3"), "N.critical_ratio", "applies only to");
+  ExpectKeyRejected(PerChamber().Set("critical_ratio", "0.2"), "P.critical_ratio", "applies only to");
+  // per chamber: P on thin_plate refuses it, N on iso6358 takes it
+  Rig mixed = OnOff().Set("P.flow", "thin_plate").Set("P.port_area", "1e-6");
+  ExpectKeyRejected(mixed.Set("P.critical_ratio", "0.3"), "P.critical_ratio", "applies only to");
+  ExpectAttaches(mixed.Set("N.critical_ratio", "0.3"));
+  // the laws it applies to take it
+  ExpectAttaches(OnOff().Set("critical_ratio", "0.3"));
+  ExpectAttaches(Proportional().Set("critical_ratio", "0.3"));
+}
+
+TEST_F(ConfigTest, RejectsHugeGasConstant) {
+  // finite, but far outside [50, 5000] J/(kg K) (r T would overflow the flow laws' constants)
+  ExpectKeyRejected(OnOff().Set("gas_constant", "1e308"), "gas_constant", "out of range [50, 5000]");
+}
+
+TEST_F(ConfigTest, RejectsPwmFrequencyTooHighForTheTimestep) {
+  // the template's step is 0.25 ms: 36 kHz puts 9 carrier periods in a step (more than 8), 30 kHz 7.5
+  ExpectKeyRejected(Pwm().Set("pwm_frequency", "36000"), "pwm_frequency", "carrier periods");
+  ExpectAttaches(Pwm().Set("pwm_frequency", "30000"));
+}
+
 // ---------------------------------------------------------------------------------------------
 // enumerations
 

@@ -77,11 +77,11 @@ Range ReachableRange(const ChamberModel& k, double p_compressed, double piston_l
 // The residual is increasing in p1 (Q falls as the chamber pressure rises), so the root is
 // unique and lies between p_compressed and the port pressures; Illinois regula falsi finds it.
 double BackwardEulerSubstep(const ChamberModel& k, const PortOpenings& o, double p0, double v0, double v1,
-                            double s, double piston_leak, double p_other) {
+                            double s) {
   double p_compressed = p0 * std::pow(v0 / v1, k.work_factor * k.polytropic_index);
   double c = s * k.polytropic_index * k.gas_rt / v1;
-  auto residual = [&](double p) { return p - p_compressed - c * NetMassFlow(k, o, p, piston_leak, p_other); };
-  Range range = ReachableRange(k, p_compressed, piston_leak, p_other);
+  auto residual = [&](double p) { return p - p_compressed - c * NetMassFlow(k, o, p, 0, 0); };
+  Range range = ReachableRange(k, p_compressed, 0, 0);
   double lo = range.lo, hi = range.hi;
   double f_lo = residual(lo), f_hi = residual(hi);
   if (f_lo >= 0) return lo;
@@ -108,7 +108,7 @@ double BackwardEulerSubstep(const ChamberModel& k, const PortOpenings& o, double
 }  // namespace
 
 double PhysicalPressureStep(const ChamberModel& k, const PortSchedule& ports, const VolumePath& volume,
-                            double p0, double h, double piston_leak, double p_other) {
+                            double p0, double h) {
   const double min_substep = h / 4096;
   double p = p0, tau = 0;
   double substep = h;
@@ -124,9 +124,9 @@ double PhysicalPressureStep(const ChamberModel& k, const PortSchedule& ports, co
       // valve openings are sampled at the substep's end (backward Euler); segments never cross a jump
       PortOpenings at_mid = ports.At(mid - 1e-12 * h), at_next = ports.At(next - 1e-12 * h);
       double v_start = volume.At(tau), v_mid = volume.At(mid), v_next = volume.At(next);
-      double full = BackwardEulerSubstep(k, at_next, p, v_start, v_next, s, piston_leak, p_other);
-      double half = BackwardEulerSubstep(k, at_mid, p, v_start, v_mid, s / 2, piston_leak, p_other);
-      half = BackwardEulerSubstep(k, at_next, half, v_mid, v_next, s / 2, piston_leak, p_other);
+      double full = BackwardEulerSubstep(k, at_next, p, v_start, v_next, s);
+      double half = BackwardEulerSubstep(k, at_mid, p, v_start, v_mid, s / 2);
+      half = BackwardEulerSubstep(k, at_next, half, v_mid, v_next, s / 2);
       double error = std::fabs(half - full);
       // at the smallest substep accept anyway (compare the requested size: s = next - tau may round above it)
       if (error > k.tolerance && substep > min_substep) {
@@ -137,7 +137,7 @@ double PhysicalPressureStep(const ChamberModel& k, const PortSchedule& ports, co
       double p_next = 2 * half - full;
       // keep the reachable range: between the port pressures and the sealed-chamber path
       double p_compressed = p * std::pow(v_start / v_next, k.work_factor * k.polytropic_index);
-      Range range = ReachableRange(k, p_compressed, piston_leak, p_other);
+      Range range = ReachableRange(k, p_compressed, 0, 0);
       p = std::clamp(p_next, range.lo, range.hi);
       tau = next;
       double grow = error > 0 ? 0.9 * std::sqrt(k.tolerance / error) : 4.0;
@@ -327,6 +327,17 @@ bool LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* p
   }
   for (int i = 0; i < n; ++i) p1[i] = KeepReachable(k, i, compressed, piston_leak, predicted[i] + h * correction[i]);
   return true;
+}
+
+void PistonLeakExchange(const ChamberModel k[2], const double volume[2], double piston_leak, double t, double p[2]) {
+  // dp_P/dt = -a (p_P - p_N), dp_N/dt = b (p_P - p_N), a = n_P r T G / V_P, b = n_N r T G / V_N:
+  // the difference decays as exp(-(a + b) t) and b p_P + a p_N stays constant
+  double a = k[0].polytropic_index * k[0].gas_rt * piston_leak / volume[0];
+  double b = k[1].polytropic_index * k[1].gas_rt * piston_leak / volume[1];
+  if (a + b <= 0) return;
+  double decayed = (p[0] - p[1]) * std::expm1(-(a + b) * t) / (a + b);  // change of the difference, over a + b
+  p[0] += a * decayed;
+  p[1] -= b * decayed;
 }
 
 SteadyStateAndRate IdentifiedModel(const IdentifiedParams& c, double u, double v, double v_rate) {

@@ -60,10 +60,10 @@ double PressureRate(const ChamberModel& k, const PortOpenings& o, double p, doub
 // Richardson extrapolation; the substep adapts to `tolerance`, and splits at
 // the instants where valves switch. The result lies in the reachable range
 // [min(p_exhaust, p_compressed), max(p_supply, p_compressed)].
-// The leak across the piston (kg/(s Pa)) is integrated with the other chamber held at
-// p_other; the linearized step below couples the two chambers instead.
+// The leak to the atmosphere is included; the leak across the piston is not (see
+// PistonLeakExchange).
 double PhysicalPressureStep(const ChamberModel& k, const PortSchedule& ports, const VolumePath& volume,
-                            double p0, double h, double piston_leak = 0, double p_other = 0);
+                            double p0, double h);
 
 // The default step: pressures (Pa abs) of n chambers (1, or 2: a cylinder's P and N,
 // coupled by the leak across the piston) at the end of a step of length h from p0.
@@ -80,6 +80,12 @@ double PhysicalPressureStep(const ChamberModel& k, const PortSchedule& ports, co
 // error indicator above k.tolerance, or a slope that changes by more than a quarter.
 bool LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* ports[], const VolumePath volume[],
                             double piston_leak, const double p0[], double h, double p1[]);
+
+// The leak across the piston alone over a time t, solved exactly (the project's own
+// laminar form, chambers at fixed volumes): p_P - p_N decays as exp(-(a + b) t) with
+// a = n_P r T G / V_P and b = n_N r T G / V_N, and b p_P + a p_N (the gas exchanged)
+// is conserved. The adaptive step takes it in two halves around the valve flows.
+void PistonLeakExchange(const ChamberModel k[2], const double volume[2], double piston_leak, double t, double p[2]);
 
 // paper 000 eq. (10): steady-state pressure s (Pa abs) and rate r (1/s) at
 // command u (V), volume sensor v = x and its rate

@@ -39,6 +39,7 @@ constexpr int kTagSlot = 0, kFingerprintSlot = 1, kConfigSlot = 2;
 // tags: arbitrary values no model would hold by chance
 constexpr double kMemberTag = 7.3612e-291;  // an actuator of a cylinder
 constexpr double kHomeTag = 7.3613e-291;    // "<name>.P", which holds the configuration
+constexpr double kDetachedTag = 7.3614e-291;  // an actuator of a detached cylinder (its gain stays fixed)
 
 // everything a step needs, decoded from a model
 struct CompiledModel {
@@ -121,8 +122,12 @@ std::unique_ptr<CompiledModel> Finish(const mjModel* m, std::vector<Cylinder> cy
 // the cylinders as the MJCF text elements "pneumatic:<name>" describe them
 std::unique_ptr<CompiledModel> CompileFromText(const mjModel* m, std::string* error) {
   std::vector<Cylinder> cylinders;
+  // a model attached before has fixed chamber gains, which the binding then accepts
   bool attached_before = false;
-  for (int id = 0; id < m->nu; ++id) attached_before |= IsTagged(m, id);
+  for (int id = 0; id < m->nu; ++id) {
+    const double* user = UserData(m, id);
+    attached_before |= IsTagged(m, id) || (user && user[kTagSlot] == kDetachedTag);
+  }
   for (int i = 0; i < m->ntext; ++i) {
     std::string element = m->names + m->name_textadr[i];
     if (element.rfind(kConfigPrefix, 0) != 0) continue;
@@ -343,7 +348,7 @@ bool Attach(mjModel* m, std::string* error) {
 
 void Detach(mjModel* m) {
   for (int id = 0; id < m->nu; ++id) {
-    if (IsTagged(m, id)) m->actuator_user[static_cast<size_t>(id) * m->nuser_actuator + kTagSlot] = 0;
+    if (IsTagged(m, id)) m->actuator_user[static_cast<size_t>(id) * m->nuser_actuator + kTagSlot] = kDetachedTag;
   }
 }
 
