@@ -248,20 +248,6 @@ void ApplyMatrixFunction(int n, double (*phi)(double), double (*phi_slope)(doubl
   }
 }
 
-// (v_from / v_to)^exponent, the polytropic compression factor: a binomial series where the volumes
-// are within 1 % of each other (most steps; the remainder is below 1e-16), pow otherwise
-double CompressionFactor(double v_from, double v_to, double exponent) {
-  double e = (v_from - v_to) / v_to;
-  if (std::fabs(e) > 1e-2) return std::pow(v_from / v_to, exponent);
-  static constexpr double kInverse[] = {0, 1, 1 / 2.0, 1 / 3.0, 1 / 4.0, 1 / 5.0, 1 / 6.0, 1 / 7.0, 1 / 8.0};
-  double term = 1, sum = 1;
-  for (int k = 1; k <= 8; ++k) {
-    term *= (exponent - (k - 1)) * kInverse[k] * e;
-    sum += term;
-  }
-  return sum;
-}
-
 // the linearized step holds where the flow's slope changes by at most this fraction over the step
 constexpr double kMaxSlopeChange = 0.25;
 
@@ -287,8 +273,12 @@ bool LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* p
   for (int i = 0; i < n; ++i) {
     double v_start = volume[i].At(0), v_end = volume[i].At(h), exponent = k[i].work_factor * k[i].polytropic_index;
     v_mid[i] = volume[i].At(h / 2);
-    if (v_end != v_start) compression[i] = -exponent * std::log1p((v_end - v_start) / v_start) / h;
-    compressed[i] = v_end == v_start ? p0[i] : p0[i] * CompressionFactor(v_start, v_end, exponent);
+    compressed[i] = p0[i];
+    if (v_end != v_start) {
+      double log_ratio = -exponent * std::log1p((v_end - v_start) / v_start);  // ln (V(0)/V(h))^(alpha n)
+      compression[i] = log_ratio / h;
+      compressed[i] = p0[i] * std::exp(log_ratio);
+    }
     open_start[i] = ports[i]->At(0), open_end[i] = ports[i]->At(h);
   }
   // exponential Rosenbrock-Euler: p + h phi1(B h) rate, B the slope (exact where the flow is linear)

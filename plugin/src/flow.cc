@@ -54,11 +54,11 @@ double ForwardFlow(const FlowLawConstants& law, double opening, double pu, doubl
       return opening * law.beta * pu;
     }
     double q = std::exp(std::log(ratio) * law.kappa_inverse);  // ratio^(1/kappa), cheaper than pow
-    double radicand = std::max(q * q - ratio * q, 0.0);  // ratio^(2/kappa) - ratio^((kappa+1)/kappa)
+    double radicand = std::max(q * (q - ratio), 0.0);          // ratio^(2/kappa) - ratio^((kappa+1)/kappa)
     double root = std::sqrt(radicand);
     if (root > 0) {
-      // d radicand / d ratio = (q / kappa) (2 q / ratio - kappa - 1)
-      double slope = q / law.kappa * (2 * q / ratio - law.kappa - 1) / (2 * root);
+      // d root / d ratio = (q / kappa) (2 q / ratio - kappa - 1) / (2 root)
+      double slope = q * law.kappa_inverse * (2 * q * pu / pd - law.kappa - 1) * (0.5 / root);
       *d_pd = opening * law.alpha * slope;
       *d_pu = opening * law.alpha * (root - ratio * slope);
     }
