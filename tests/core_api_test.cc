@@ -646,3 +646,33 @@ TEST_F(Parameters, LeakConductancesAreParameters) {
 
 }  // namespace
 }  // namespace pneumatic
+
+namespace pneumatic {
+namespace {
+
+std::string last_warning;
+void RecordWarning(const char* message) { last_warning = message; }
+
+TEST(StaleInputs, ActDotBeforeTheForcesIsReported) {
+  // MuJoCo 2.2.2 computes every actuator force before act_dot, and the velocity prediction reads
+  // them; a pass whose chamber forces do not match its act (here: act changed after mj_forward,
+  // then act_dot asked for directly) says so instead of running silently on stale forces
+  AttachedModel rig;
+  ASSERT_TRUE(rig.Load(ShippedModel("rig_onoff.xml"), true)) << rig.error();
+  mjModel* m = rig.m();
+  mjData* d = rig.d();
+  mj_forward(m, d);
+  int p = rig.cylinder().chamber_actuator[0];
+  d->act[p - (m->nu - m->na)] = 1e5;  // 1 bar gauge: the force MuJoCo computed was for 0
+  void (*previous)(const char*) = mju_user_warning;
+  mju_user_warning = RecordWarning;
+  last_warning.clear();
+  int leader = m->nu - m->na;  // the first actuator with user dynamics is pneumatic in rig A
+  ASSERT_TRUE(mjcb_act_dyn != nullptr);
+  mjcb_act_dyn(m, d, leader);
+  mju_user_warning = previous;
+  EXPECT_THAT(last_warning, HasSubstr("actuator forces are not current"));
+}
+
+}  // namespace
+}  // namespace pneumatic
