@@ -528,7 +528,9 @@ double VolumeN(double x) { return kArea * (kStroke / 2 - x) + kDeadVolume; }
 
 std::string HeldRigA(const std::string& timestep, const std::string& extra) {
   std::string xml = WithConfig("rig_onoff.xml", extra);
-  xml = ReplaceAll(xml, "timestep=\"0.00025\"", "timestep=\"" + timestep + "\"");
+  // the shipped timestep replaced by the case's
+  size_t value = xml.find("timestep=\"") + std::strlen("timestep=\"");
+  xml.replace(value, xml.find('"', value) - value, timestep);
   return ReplaceAll(xml, "mass=\"0.9\"", "mass=\"1e12\"");
 }
 

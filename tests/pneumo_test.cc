@@ -197,14 +197,15 @@ TEST_F(RolloutTest, StartsFromTheLogsFirstState) {
 
 TEST_F(RolloutTest, RefusesPeriodThatIsNotWholeSteps) {
   Load("rig_proportional.xml");
-  log::Log commands = MakeLog({"cyl.u"}, 10, 0.3e-3, [](const std::string&, size_t, double) { return 1.0; });
+  // rows of 0.35 ms: 3.5 of rig B's 0.1 ms steps
+  log::Log commands = MakeLog({"cyl.u"}, 10, 0.35e-3, [](const std::string&, size_t, double) { return 1.0; });
   RolloutResult result = Rollout(m(), &commands, {});
   EXPECT_FALSE(result.log);
   EXPECT_THAT(result.error, HasSubstr("whole number of model timesteps"));
 
   RolloutOptions options;  // the same without a log
   options.duration = 0.01;
-  options.period = 0.3e-3;
+  options.period = 0.35e-3;
   result = Rollout(m(), nullptr, options);
   EXPECT_FALSE(result.log);
   EXPECT_THAT(result.error, HasSubstr("whole number of model timesteps"));

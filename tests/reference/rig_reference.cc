@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstddef>
 #include <stdexcept>
+#include <utility>
 
 namespace pneumatic::reference {
 namespace {
@@ -394,7 +395,12 @@ std::vector<RigCommand> RunExcitation(const RigParams& p, double duration, Polic
 
 }  // namespace
 
-std::vector<RigCommand> Excitation(Rig rig, double duration, uint32_t seed, double period) {
+std::vector<RigCommand> Excitation(Rig rig, double duration, uint32_t seed, double period,
+                                   ExcitationPattern pattern) {
+  if (pattern == ExcitationPattern::kFastSwitching) {
+    if (period > 0) throw std::invalid_argument("Excitation: kFastSwitching uses the rig's control period");
+    return FastSwitchingExcitation(rig, duration, seed);
+  }
   RigParams p = DefaultParams(rig);
   if (period > 0) p.control_period = period;
   const double half = 0.5 * p.stroke;
@@ -473,6 +479,143 @@ std::vector<RigCommand> Excitation(Rig rig, double duration, uint32_t seed, doub
         c.uP = std::clamp(5.0 + common + d, 3.0, 7.0);
         c.uN = std::clamp(5.0 + common - d, 3.0, 7.0);
         return c;
+      });
+    }
+  }
+  return {};
+}
+
+namespace {
+
+// runs FastSwitchingExcitation()'s segments: `candidates(t, state)` lists the commands a segment
+// starting at time t from `state` may hold, the wanted one first, the most centring last
+template <typename Candidates>
+std::vector<RigCommand> RunHeldSegments(const RigParams& p, double duration, Lcg& rng,
+                                        Candidates candidates) {
+  const double period = p.control_period;
+  const int n = std::max(0, static_cast<int>(std::floor(duration / period + 1e-9)));
+  const int min_hold = std::max(1, static_cast<int>(std::lround(kFastSwitchingMinHold / period)));
+  const int max_hold = std::max(min_hold, static_cast<int>(std::lround(kFastSwitchingMaxHold / period)));
+  const double bound = 0.7 * 0.5 * p.stroke;
+  std::vector<RigCommand> out;
+  out.reserve(static_cast<std::size_t>(n));
+  RigState s;
+  while (static_cast<int>(out.size()) < n) {
+    const int k = static_cast<int>(out.size());
+    const int wanted = rng.Int(min_hold, max_hold);
+    std::vector<RigCommand> list = candidates(k * period, s);
+    // a new command every segment, so that no command is held longer than max_hold
+    if (k > 0) {
+      const RigCommand& last = out.back();
+      auto same = [&](const RigCommand& c) {
+        return c.u1 == last.u1 && c.u2 == last.u2 && c.u3 == last.u3 && c.u4 == last.u4 && c.u == last.u &&
+               c.uP == last.uP && c.uN == last.uN;
+      };
+      std::vector<RigCommand> fresh;
+      for (const RigCommand& c : list) {
+        if (!same(c)) fresh.push_back(c);
+      }
+      if (!fresh.empty()) list = fresh;
+    }
+    // the largest |x + lead v| at the period ends of holding c for `hold` periods, and the end state
+    auto look_ahead = [&](const RigCommand& c, int hold, RigState* end) {
+      RigState q = s;
+      double peak = 0.0;
+      for (int i = 0; i < hold; ++i) {
+        q = Integrate(p, q, c, period, kExcitationStep);
+        peak = std::max(peak, std::fabs(q.x + kFastSwitchingLead * q.v));
+      }
+      *end = q;
+      return peak;
+    };
+    int chosen = -1, hold = wanted;
+    RigState end;
+    for (int h : {wanted, min_hold}) {
+      for (std::size_t i = 0; i < list.size() && chosen < 0; ++i) {
+        if (look_ahead(list[i], h, &end) <= bound) chosen = static_cast<int>(i), hold = h;
+      }
+      if (chosen >= 0 || h == min_hold) break;
+    }
+    if (chosen < 0) {  // nothing stays inside the band: the one that stays nearest the centre
+      double best = 0.0;
+      hold = min_hold;
+      for (std::size_t i = 0; i < list.size(); ++i) {
+        RigState e;
+        const double peak = look_ahead(list[i], hold, &e);
+        if (chosen < 0 || peak < best) chosen = static_cast<int>(i), best = peak, end = e;
+      }
+    }
+    const int count = std::min(hold, n - k);
+    out.insert(out.end(), static_cast<std::size_t>(count), list[static_cast<std::size_t>(chosen)]);
+    s = end;  // unused when the segment was cut at `duration`
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<RigCommand> FastSwitchingExcitation(Rig rig, double duration, uint32_t seed) {
+  const RigParams p = DefaultParams(rig);
+  const double half = 0.5 * p.stroke;
+  // its own stream: a different seed mapping from Excitation()'s
+  Lcg rng(seed ^ 0x5A17C4E5u);
+  switch (rig) {
+    // rig A: a random Table I mode, or Table II's when the predicted error e = x - x_ref + 0.03 s v
+    // leaves the band (as Excitation()); x_ref random in 0.4 L/2, new every 0.1-0.3 s
+    case Rig::kOnOff: {
+      double x_ref = 0.0, next_ref = 0.0;
+      return RunHeldSegments(p, duration, rng, [&](double t, const RigState& s) {
+        if (t >= next_ref) {
+          x_ref = rng.Uniform(-0.4, 0.4) * half;
+          next_ref = t + rng.Uniform(0.1, 0.3);
+        }
+        int m = rng.Int(1, 9);
+        const double e = s.x - x_ref + 0.03 * s.v;
+        const double eps = 0.2 * half, beta = 0.4 * half;
+        const double e1 = p.supply_pressure + p.exhaust_pressure - s.p_P - s.p_N;
+        if (e > beta) m = 7;
+        else if (e < -beta) m = 6;
+        else if (e > eps) m = e1 > 0 ? 5 : 3;
+        else if (e < -eps) m = e1 > 0 ? 2 : 4;
+        // then the other modes in a random order
+        int order[9] = {1, 2, 3, 4, 5, 6, 7, 8, 9};
+        for (int i = 8; i > 0; --i) std::swap(order[i], order[rng.Int(0, i)]);
+        std::vector<RigCommand> list{ModeCommand(m)};
+        for (int o : order) {
+          if (o != m) list.push_back(ModeCommand(o));
+        }
+        return list;
+      });
+    }
+    // rig B: u = sat(r - 10 x - 0.5 v), r in [-2.5, 2.5] V; then r / 2, then 0. Excitation()'s
+    // 40 V/m and 2 V s/m, sampled only every 10-80 ms, drive the piston through a full-stroke limit
+    // cycle at 3-4 m/s, along which a 10 um offset grows 40-90 fold in 4 s (r in [-5, 5] V or in
+    // [-2, 2] V alike): an open-loop replay would measure that growth, not the model
+    case Rig::kProportional: {
+      return RunHeldSegments(p, duration, rng, [&](double, const RigState& s) {
+        const double r = rng.Uniform(-0.5 * p.voltage_limit, 0.5 * p.voltage_limit);
+        std::vector<RigCommand> list;
+        for (double scale : {1.0, 0.5, 0.0}) {
+          RigCommand c;
+          c.u = std::clamp(scale * r - 10.0 * s.x - 0.5 * s.v, -p.voltage_limit, p.voltage_limit);
+          list.push_back(c);
+        }
+        return list;
+      });
+    }
+    // rig C: uP = 5 + c + d, uN = 5 + c - d in [3, 7] V, d = r - 40 x - 0.3 v; then r / 2, then 0
+    case Rig::kPerChamber: {
+      return RunHeldSegments(p, duration, rng, [&](double, const RigState& s) {
+        const double c = rng.Uniform(-1.0, 1.0), r = rng.Uniform(-2.0, 2.0);
+        std::vector<RigCommand> list;
+        for (double scale : {1.0, 0.5, 0.0}) {
+          const double d = scale * r - 40.0 * s.x - 0.3 * s.v;
+          RigCommand cmd;
+          cmd.uP = std::clamp(5.0 + c + d, 3.0, 7.0);
+          cmd.uN = std::clamp(5.0 + c - d, 3.0, 7.0);
+          list.push_back(cmd);
+        }
+        return list;
       });
     }
   }

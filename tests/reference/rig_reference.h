@@ -154,7 +154,35 @@ std::vector<Sample> Simulate(const RigParams& p, const RigState& initial,
 // B: multi-sine plus random steps in V, minus position/velocity feedback, saturated at +-5 V;
 // C: common-mode sweep/steps plus differential steps and feedback, clamped to [3, 7] V.
 // `period` > 0 replaces the rig's control period: the commands are then meant to be held that long.
-std::vector<RigCommand> Excitation(Rig rig, double duration, uint32_t seed, double period = 0);
+// `pattern` kFastSwitching gives FastSwitchingExcitation() instead (then `period` must be 0).
+enum class ExcitationPattern { kDefault, kFastSwitching };
+std::vector<RigCommand> Excitation(Rig rig, double duration, uint32_t seed, double period = 0,
+                                   ExcitationPattern pattern = ExcitationPattern::kDefault);
+
+// Fast mode switching, as a sliding-mode controller switches: piecewise-constant commands, each
+// held a random whole number of control periods uniform in [10 ms, 80 ms] (A: 5-40 periods,
+// B: 10-80, C: 1-8), one command per control period over `duration` s. Deterministic per `seed`
+// (own LCG); different from Excitation()'s sequence for the same seed.
+// A: any of paper 002 Table I's nine modes at random, overridden by the Table II choice when the
+//    predicted position error leaves a band around a random set point (as Excitation());
+// B: u = sat(r - 10 V/m x - 0.5 V s/m v), r uniform in [-2.5, 2.5] V, x and v at the segment's
+//    start (a quarter of Excitation()'s feedback gains, which are made for 1 kHz updates: see
+//    rig_reference.cc);
+// C: uP = 5 + c + d, uN = 5 + c - d clamped to [3, 7] V, c uniform in [-1, 1] V,
+//    d = r - 40 V/m x - 0.3 V s/m v (Excitation()'s feedback) with r uniform in [-2, 2] V.
+// A command is never followed by the same one, so none is held longer than 80 ms.
+// Each segment is first simulated on the generator's own copy of the reference (RK4 at
+// kExcitationStep); if |x + kFastSwitchingLead v| would leave 0.7 L/2 at a period's end, the
+// other candidates are tried (A: the other modes in a random order; B, C: r halved, then r = 0),
+// then the shortest hold; failing all, the candidate that stays nearest the centre is used.
+// So the piston stays inside |x| < 0.8 L/2 (checked by tests/rig_replay_test.cc).
+std::vector<RigCommand> FastSwitchingExcitation(Rig rig, double duration, uint32_t seed);
+
+// shortest and longest hold of FastSwitchingExcitation(), s
+inline constexpr double kFastSwitchingMinHold = 10e-3;
+inline constexpr double kFastSwitchingMaxHold = 80e-3;
+// its look-ahead on the velocity, s
+inline constexpr double kFastSwitchingLead = 0.02;
 
 // the RK4 step the excitation generators use internally, s
 inline constexpr double kExcitationStep = 1e-5;
