@@ -8,7 +8,7 @@
 //   explicit    `step=explicit` inserted: MuJoCo's plain explicit Euler on the same equations
 //               (comparison only).
 //
-// Speed: each shipped rig model (models_mjcf/, timestep 0.25 ms) is stepped with mj_step for
+// Speed: each shipped rig model (models_mjcf/, at its own timestep) is stepped with mj_step for
 // about one second of wall time, its commands taken from the rig's reference excitation
 // (Excitation(rig, 4 s, seed 1), zero-order hold at the control period, the state reset every
 // 4 s), once per chamber step and once without the extension (no callbacks, ctrl 0), which is
@@ -294,12 +294,12 @@ double Median(std::vector<double> values) {
 // the speed table: MuJoCo alone and each chamber step for each rig
 bool PrintSpeed(const std::vector<std::vector<pneumatic::reference::RigCommand>>& excitations) {
   std::printf("### Speed\n\n");
-  std::printf("Shipped models (timestep 0.25 ms, Euler), one cylinder each, driven by the reference excitation. "
+  std::printf("Shipped models (each at its own timestep dt, Euler), one cylinder each, driven by the reference excitation. "
               "Median of %d runs of about %.0f s each. \"MuJoCo alone\" is the same model without the extension "
               "(no callbacks, ctrl 0); the cost per chamber step is the extra time per mj_step over MuJoCo alone, "
               "divided by the %d chambers (rig B's spool lag included).\n\n",
               kSpeedRepeats, kSpeedSeconds, kChambers);
-  std::string header = "| rig | MuJoCo alone (steps/s) |", rule = "|---|---:|";
+  std::string header = "| rig | dt | MuJoCo alone (steps/s) |", rule = "|---|---:|---:|";
   for (const StepVariant& v : kSteps) header += Format(" %s (steps/s) |", v.name), rule += "---:|";
   for (const StepVariant& v : kSteps) header += Format(" %s: µs per chamber step |", v.name), rule += "---:|";
   std::printf("%s\n%s\n", header.c_str(), rule.c_str());
@@ -341,7 +341,7 @@ bool PrintSpeed(const std::vector<std::vector<pneumatic::reference::RigCommand>>
 
     // medians, and the extension's share of a step
     double sps_alone = Median(alone);
-    std::string row = Format("| %s | %.0f |", RigName(rig), sps_alone), costs;
+    std::string row = Format("| %s | %g ms | %.0f |", RigName(rig), plain->m()->opt.timestep * 1e3, sps_alone), costs;
     for (size_t s = 0; s < kStepCount; ++s) {
       double sps = Median(with_step[s]);
       row += Format(" %.0f%s |", sps, diverged[s] ? " (diverged)" : "");
