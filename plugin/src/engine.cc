@@ -299,6 +299,10 @@ void InstallCallbacks() {
 
 // the decoded model of m, or null and *error
 std::shared_ptr<const CompiledModel> Compiled(const mjModel* m, std::string* error) {
+  if (!m) {
+    *error = "model is null";
+    return nullptr;
+  }
   for (int id = 0; id < m->nu; ++id) {
     if (!IsTagged(m, id)) continue;
     if (!Lookup(m, id)) break;
@@ -347,6 +351,7 @@ bool Attach(mjModel* m, std::string* error) {
 }
 
 void Detach(mjModel* m) {
+  if (!m) return;
   for (int id = 0; id < m->nu; ++id) {
     if (IsTagged(m, id)) m->actuator_user[static_cast<size_t>(id) * m->nuser_actuator + kTagSlot] = kDetachedTag;
   }
