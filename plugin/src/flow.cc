@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <memory>
+#include <mutex>
 
 namespace pneumatic {
 
@@ -36,7 +39,65 @@ FlowLawConstants ThinPlateConstants(double discharge_coefficient, double kappa, 
   c.beta = discharge_coefficient *
            std::sqrt(kappa / zrt * std::pow(2 / (kappa + 1), (kappa + 1) / (kappa - 1)));
   c.theta = std::pow((kappa + 1) / 2, kappa / (kappa - 1));
+  c.table = ThinPlateTableFor(kappa);
   return c;
+}
+
+namespace {
+
+// g(r) = (r^(2/k) - r^((k+1)/k)) / (1 - r) and dg/dr: exact for r < 1, the limit at r = 1
+// from the binomial series of r^a around 1 (t = 1 - r: r^a = 1 - a t + a(a-1)/2 t^2 - ...)
+void SmoothFactorSquared(double kappa, double r, double* g, double* dg) {
+  double a1 = 2 / kappa, a2 = (kappa + 1) / kappa;
+  double t = 1 - r;
+  if (t <= 0) {
+    *g = (kappa - 1) / kappa;
+    *dg = -(a1 * (a1 - 1) - a2 * (a2 - 1)) / 2;
+    return;
+  }
+  double radicand = std::pow(r, a1) - std::pow(r, a2);
+  double d_radicand = a1 * std::pow(r, a1 - 1) - a2 * std::pow(r, a2 - 1);
+  *g = radicand / t;
+  *dg = (d_radicand * t + radicand) / (t * t);
+}
+
+}  // namespace
+
+const ThinPlateTable* ThinPlateTableFor(double kappa) {
+  // built once per kappa at attach time, never freed: a handful of kilobytes
+  static std::mutex mutex;
+  static std::map<double, std::unique_ptr<ThinPlateTable>> tables;
+  std::lock_guard<std::mutex> lock(mutex);
+  std::unique_ptr<ThinPlateTable>& table = tables[kappa];
+  if (table) return table.get();
+  table = std::make_unique<ThinPlateTable>();
+  double theta = std::pow((kappa + 1) / 2, kappa / (kappa - 1));
+  table->r_min = 1 / theta;
+  table->step = (1 - table->r_min) / ThinPlateTable::kIntervals;
+  table->step_inverse = 1 / table->step;
+  for (int i = 0; i <= ThinPlateTable::kIntervals; ++i) {
+    double r = i == ThinPlateTable::kIntervals ? 1.0 : table->r_min + i * table->step;
+    double g = 0, dg = 0;
+    SmoothFactorSquared(kappa, r, &g, &dg);
+    table->f[i] = std::sqrt(g);
+    table->slope[i] = dg / (2 * table->f[i]);
+  }
+  return table.get();
+}
+
+double ThinPlateTable::Shape(double r, double* d_shape) const {
+  // cubic Hermite interpolation of f on the interval holding r
+  double x = (r - r_min) * step_inverse;
+  int i = std::clamp(static_cast<int>(x), 0, kIntervals - 1);
+  double u = x - i, u2 = u * u, u3 = u2 * u;
+  double h00 = 2 * u3 - 3 * u2 + 1, h10 = u3 - 2 * u2 + u, h01 = -2 * u3 + 3 * u2, h11 = u3 - u2;
+  double value = h00 * f[i] + h10 * step * slope[i] + h01 * f[i + 1] + h11 * step * slope[i + 1];
+  double d_value = ((6 * u2 - 6 * u) * (f[i] - f[i + 1])) * step_inverse + (3 * u2 - 4 * u + 1) * slope[i] +
+                   (3 * u2 - 2 * u) * slope[i + 1];
+  // sqrt(1 - r) f(r): the square root carries the infinite slope at r = 1
+  double t = std::max(1 - r, 0.0), root = std::sqrt(t);
+  *d_shape = t > 0 ? root * d_value - value / (2 * root) : 0;
+  return root * value;
 }
 
 namespace {
@@ -53,15 +114,10 @@ double ForwardFlow(const FlowLawConstants& law, double opening, double pu, doubl
       *d_pu = opening * law.beta;
       return opening * law.beta * pu;
     }
-    double q = std::exp(std::log(ratio) * law.kappa_inverse);  // ratio^(1/kappa), cheaper than pow
-    double radicand = std::max(q * (q - ratio), 0.0);          // ratio^(2/kappa) - ratio^((kappa+1)/kappa)
-    double root = std::sqrt(radicand);
-    if (root > 0) {
-      // d root / d ratio = (q / kappa) (2 q / ratio - kappa - 1) / (2 root)
-      double slope = q * law.kappa_inverse * (2 * q * pu / pd - law.kappa - 1) * (0.5 / root);
-      *d_pd = opening * law.alpha * slope;
-      *d_pu = opening * law.alpha * (root - ratio * slope);
-    }
+    double slope = 0;
+    double root = law.table->Shape(ratio, &slope);  // sqrt(ratio^(2/kappa) - ratio^((kappa+1)/kappa))
+    *d_pd = opening * law.alpha * slope;
+    *d_pu = opening * law.alpha * (root - ratio * slope);
     return opening * law.alpha * pu * root;
   }
   // elliptic law, paper 002 eq. (4) / paper 001 eq. (2): choked when pd/pu <= b
