@@ -45,6 +45,7 @@
 
 #include <mujoco/mujoco.h>
 
+#include "machine.h"
 #include "pneumatic/pneumatic.h"
 #include "reference_log.h"
 #include "rig_reference.h"
@@ -96,29 +97,6 @@ std::string Format(const char* format, Args... args) {
 int mujoco_warnings = 0;
 void CountWarning(const char*) { ++mujoco_warnings; }
 
-//---------------------------------- machine --------------------------------------------------------
-
-std::string CpuModel() {
-  std::ifstream cpuinfo("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(cpuinfo, line)) {
-    if (line.rfind("model name", 0) == 0) {
-      size_t colon = line.find(':');
-      if (colon != std::string::npos) return line.substr(line.find_first_not_of(" \t", colon + 1));
-    }
-  }
-  return "unknown CPU";
-}
-
-std::string Compiler() {
-#if defined(__clang__)
-  return std::string("Clang ") + __clang_version__;
-#elif defined(__GNUC__)
-  return std::string("GCC ") + __VERSION__;
-#else
-  return "unknown compiler";
-#endif
-}
 
 //---------------------------------- models ---------------------------------------------------------
 
@@ -519,9 +497,7 @@ int main() {
   mju_user_warning = CountWarning;
 
   // machine
-  std::printf("Machine: %s, %u cores, MuJoCo %s, %s, %s build.\n\n", CpuModel().c_str(),
-              std::thread::hardware_concurrency(), mj_versionString(), Compiler().c_str(),
-              std::strlen(PNEUMATIC_BUILD_TYPE) ? PNEUMATIC_BUILD_TYPE : "unspecified");
+  pneumatic::benchmarks::PrintMachine(PNEUMATIC_BUILD_TYPE);
 
   // speed runs use each rig's own excitation; the accuracy references hold every command for
   // kAccuracyPeriod, which every dt divides, so each rig is measured at every dt

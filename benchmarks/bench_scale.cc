@@ -42,6 +42,7 @@
 
 #include <mujoco/mujoco.h>
 
+#include "machine.h"
 #include "pneumatic/pneumatic.h"
 
 namespace {
@@ -69,28 +70,6 @@ double Seconds(Clock::time_point start) { return std::chrono::duration<double>(C
 int mujoco_warnings = 0;
 void CountWarning(const char*) { ++mujoco_warnings; }
 
-//---------------------------------- machine --------------------------------------------------------
-
-std::string CpuModel() {
-  std::ifstream cpuinfo("/proc/cpuinfo");
-  std::string line;
-  while (std::getline(cpuinfo, line)) {
-    if (line.rfind("model name", 0) != 0) continue;
-    size_t colon = line.find(':');
-    if (colon != std::string::npos) return line.substr(line.find_first_not_of(" \t", colon + 1));
-  }
-  return "unknown CPU";
-}
-
-std::string Compiler() {
-#if defined(__clang__)
-  return std::string("Clang ") + __clang_version__;
-#elif defined(__GNUC__)
-  return std::string("GCC ") + __VERSION__;
-#else
-  return "unknown compiler";
-#endif
-}
 
 //---------------------------------- models ---------------------------------------------------------
 
@@ -382,12 +361,6 @@ Check RunCheck(const Drive& drive) {
 
 //---------------------------------- output ---------------------------------------------------------
 
-void PrintMachine() {
-  std::printf("Machine: %s, %u cores, MuJoCo %s, %s, %s build.\n\n", CpuModel().c_str(),
-              std::thread::hardware_concurrency(), mj_versionString(), Compiler().c_str(),
-              std::strlen(PNEUMATIC_BUILD_TYPE) ? PNEUMATIC_BUILD_TYPE : "unspecified");
-}
-
 // the speed table; fills *warnings
 void PrintSpeed(const Drive& pneu, const Drive& motor, int cylinders, long* warnings) {
   // alternate the two models so that a slow phase of the machine hits both alike
@@ -476,7 +449,7 @@ int main(int argc, char** argv) {
   Drive motor = MakeDrive(motor_label.c_str(), m_motor, cylinders, false);
 
   // figures
-  PrintMachine();
+  pneumatic::benchmarks::PrintMachine(PNEUMATIC_BUILD_TYPE);
   long warnings = 0;
   PrintSpeed(pneu, motor, cylinders, &warnings);
   PrintThreads(pneu, motor, &warnings);

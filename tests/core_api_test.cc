@@ -28,6 +28,8 @@ using ::testing::HasSubstr;
 using testing::AttachedModel;
 using testing::LoadModelFromString;
 using testing::MujocoTest;
+using testing::SameBits;
+using testing::State;
 using testing::ShippedModel;
 
 const char* const kShippedRigs[] = {"rig_onoff.xml", "rig_proportional.xml", "rig_per_chamber.xml",
@@ -100,28 +102,6 @@ void RunPattern(const mjModel* m, mjData* d, const CylinderInfo& c, int first_st
   }
 }
 
-// the integrated state: time, qpos, qvel, act
-std::vector<double> State(const mjModel* m, const mjData* d) {
-  std::vector<double> s{d->time};
-  s.insert(s.end(), d->qpos, d->qpos + m->nq);
-  s.insert(s.end(), d->qvel, d->qvel + m->nv);
-  s.insert(s.end(), d->act, d->act + m->na);
-  return s;
-}
-
-// bitwise equality (memcmp), naming the first difference
-::testing::AssertionResult SameBits(const std::vector<double>& a, const std::vector<double>& b) {
-  if (a.size() != b.size()) return ::testing::AssertionFailure() << "sizes " << a.size() << " and " << b.size();
-  if (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0) {
-    return ::testing::AssertionSuccess();
-  }
-  for (size_t i = 0; i < a.size(); ++i) {
-    if (std::memcmp(&a[i], &b[i], sizeof(double)) != 0) {
-      return ::testing::AssertionFailure() << std::setprecision(17) << "entry " << i << ": " << a[i] << " vs " << b[i];
-    }
-  }
-  return ::testing::AssertionFailure();
-}
 
 // the state after `steps` steps of the pattern from reset
 std::vector<double> PatternRun(const mjModel* m, int steps) {

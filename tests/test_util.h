@@ -4,8 +4,10 @@
 #define PNEUMATIC_TESTS_TEST_UTIL_H_
 
 #include <cstring>
+#include <iomanip>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
@@ -72,6 +74,29 @@ class AttachedModel {
   mjData* data_ = nullptr;
   std::string error_;
 };
+
+// the integrated state of a run, in one vector: time, qpos, qvel, act
+inline std::vector<double> State(const mjModel* m, const mjData* d) {
+  std::vector<double> s{d->time};
+  s.insert(s.end(), d->qpos, d->qpos + m->nq);
+  s.insert(s.end(), d->qvel, d->qvel + m->nv);
+  s.insert(s.end(), d->act, d->act + m->na);
+  return s;
+}
+
+// bitwise equality of two arrays, naming the first difference
+inline ::testing::AssertionResult SameBits(const std::vector<double>& a, const std::vector<double>& b) {
+  if (a.size() != b.size()) return ::testing::AssertionFailure() << "sizes " << a.size() << " and " << b.size();
+  if (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0) {
+    return ::testing::AssertionSuccess();
+  }
+  for (size_t i = 0; i < a.size(); ++i) {
+    if (std::memcmp(&a[i], &b[i], sizeof(double)) != 0) {
+      return ::testing::AssertionFailure() << std::setprecision(17) << "entry " << i << ": " << a[i] << " vs " << b[i];
+    }
+  }
+  return ::testing::AssertionFailure();
+}
 
 // path of a model shipped in models_mjcf/
 inline std::string ShippedModel(const std::string& file) { return std::string(PNEUMATIC_MODELS_DIR) + "/" + file; }
