@@ -30,29 +30,13 @@ using testing::LoadModelFromString;
 using testing::MujocoTest;
 using testing::SameBits;
 using testing::State;
+using testing::PatternCommand;
+using testing::RunPattern;
+using testing::kShippedRigs;
+using testing::ReadText;
+using testing::ReplaceAll;
 using testing::ShippedModel;
 
-const char* const kShippedRigs[] = {"rig_onoff.xml", "rig_proportional.xml", "rig_per_chamber.xml",
-                                    "rig_proportional_full.xml"};
-
-std::string ReadText(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream text;
-  text << in.rdbuf();
-  EXPECT_FALSE(text.str().empty()) << "cannot read " << path;
-  return text.str();
-}
-
-// text with every occurrence of `from` replaced; `from` must occur
-std::string ReplaceAll(std::string text, const std::string& from, const std::string& to) {
-  size_t count = 0;
-  for (size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size())) {
-    text.replace(at, from.size(), to);
-    ++count;
-  }
-  EXPECT_GT(count, 0u) << "'" << from << "' not found";
-  return text;
-}
 
 // a shipped rig's MJCF with `extra` appended to its "pneumatic:cyl" configuration text
 std::string WithConfig(const std::string& file, const std::string& extra) {
@@ -78,29 +62,6 @@ mjModel* LoadAttached(const std::string& xml) {
   return m;
 }
 
-// a deterministic command pattern for any valve arrangement: push (chamber P fills, N vents) for
-// 40 ms, then pull for 40 ms, with a staircase on the proportional commands
-void PatternCommand(const CylinderInfo& c, mjData* d, int step) {
-  bool push = (step / 160) % 2 == 0;
-  double stair = (step % 97) / 50.0;
-  for (const auto& [signal, id] : c.command_actuators) {
-    double u = 0;
-    if (signal == "u1" || signal == "u4") u = push;
-    if (signal == "u2" || signal == "u3") u = !push;
-    if (signal == "u") u = push ? 2 + stair : -2 - stair;
-    if (signal == "uP") u = push ? 6 + stair : 3.5;
-    if (signal == "uN") u = push ? 3.5 : 6 + stair;
-    if (signal == "duty") u = push ? 0.6 : -0.4;
-    d->ctrl[id] = u;
-  }
-}
-
-void RunPattern(const mjModel* m, mjData* d, const CylinderInfo& c, int first_step, int steps) {
-  for (int i = first_step; i < first_step + steps; ++i) {
-    PatternCommand(c, d, i);
-    mj_step(m, d);
-  }
-}
 
 
 // the state after `steps` steps of the pattern from reset
