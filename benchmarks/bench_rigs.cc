@@ -1,8 +1,8 @@
 // Benchmark of the pneumatic extension on the three rigs of shared/spec/rigs.md; it prints the
 // Markdown of the README's "Benchmark" section to stdout (its headings start at ###; progress
 // goes to stderr). It compares the three chamber steps of the MJCF key `step`:
-//   linearized  the shipped model as is (the default): an exponential step with the flow
-//               linearised in conductance form, with an adaptive fallback;
+//   linearized  the shipped model as is (the default): an exponential Rosenbrock step with
+//               the flow linearised by its slope, a second-order correction and an adaptive fallback;
 //   exact       `step=exact` inserted: adaptive implicit backward Euler with Richardson
 //               extrapolation (the former default);
 //   explicit    `step=explicit` inserted: MuJoCo's plain explicit Euler on the same equations
@@ -551,8 +551,8 @@ int main() {
               "%.0f %%, %.0f %%, %.0f %% of its half stroke. "
               "Errors are the max |p_sim - p_ref| over both chambers and every command period, in %% of "
               "supply - exhaust (A %g, B %g, C %g Pa), and the max |x_sim - x_ref|. \"linearized\" is the extension's "
-              "default chamber step (an exponential step with the flow linearised in conductance form and an adaptive "
-              "fallback), \"exact\" its former default (step=exact: adaptive implicit backward Euler with Richardson "
+              "default chamber step (an exponential Rosenbrock step with the flow linearised by its slope, a second-order "
+              "correction and an adaptive fallback), \"exact\" its former default (step=exact: adaptive implicit backward Euler with Richardson "
               "extrapolation), \"explicit\" MuJoCo's plain explicit Euler on the same equations (step=explicit). "
               "Linearized counts as within %gx of exact where its pressure error is at most %g times exact's or both "
               "are below %g %%.\n\n",
