@@ -9,6 +9,7 @@
 
 #include "pid.h"
 #include "pneumatic/pneumatic.h"
+#include "rollout.h"
 
 namespace pneumatic {
 namespace {
@@ -93,9 +94,8 @@ GenerateResult Generate(const mjModel* m, const GenerateOptions& options) {
     result.error = message;
     return result;
   };
-  if (!IsAttached(m)) return fail("the model is not attached to the pneumatic extension");
-  std::vector<CylinderInfo> cylinders = Cylinders(m);
-  if (cylinders.empty()) return fail("the model has no pneumatic cylinder (no <text name=\"pneumatic:...\">)");
+  std::vector<CylinderInfo> cylinders;
+  if (std::string problem = AttachedCylinders(m, &cylinders); !problem.empty()) return fail(problem);
   if (!std::isfinite(options.duration) || !(options.duration > 0)) return fail("the duration must be a positive number of seconds");
   if (!(options.period > 0) || !std::isfinite(options.period)) return fail("the period must be positive");
   if (!(options.noise_pressure >= 0) || !std::isfinite(options.noise_pressure)) return fail("the pressure noise must be >= 0 Pa");

@@ -26,15 +26,25 @@ int DrivenJoint(const mjModel* m, const CylinderInfo& c) {
 
 }  // namespace
 
+std::string AttachedCylinders(const mjModel* m, std::vector<CylinderInfo>* cylinders) {
+  *cylinders = Cylinders(m);
+  if (!cylinders->empty()) return "";
+  for (int i = 0; i < m->ntext; ++i) {
+    if (std::string(m->names + m->name_textadr[i]).rfind("pneumatic:", 0) == 0) {
+      return "the model is not attached to the pneumatic extension (pneumatic::Attach)";
+    }
+  }
+  return "the model has no pneumatic cylinder (no <text name=\"pneumatic:...\">)";
+}
+
 RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutOptions& options) {
   RolloutResult result;
   auto fail = [&](const std::string& message) {
     result.error = message;
     return result;
   };
-  if (!IsAttached(m)) return fail("the model is not attached to the pneumatic extension");
-  std::vector<CylinderInfo> cylinders = Cylinders(m);
-  if (cylinders.empty()) return fail("the model has no pneumatic cylinder (no <text name=\"pneumatic:...\">)");
+  std::vector<CylinderInfo> cylinders;
+  if (std::string problem = AttachedCylinders(m, &cylinders); !problem.empty()) return fail(problem);
 
   // rows: from the log, or a constant-command run of `duration`
   double timestep = m->opt.timestep;

@@ -6,8 +6,11 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <mujoco/mujoco.h>
+
+#include "pneumatic/pneumatic.h"
 
 #include "log_csv.h"
 
@@ -43,6 +46,10 @@ struct RolloutResult {
 // columns as given and, for every cylinder, the measured columns p_P, p_N, x,
 // v, p_S sampled at each row's time before that row's command acts.
 RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutOptions& options);
+
+// The cylinders of an attached model; "" or why there are none to drive: the model has no
+// "pneumatic:" text, or has some but was not attached.
+std::string AttachedCylinders(const mjModel* m, std::vector<CylinderInfo>* cylinders);
 
 }  // namespace pneumatic
 
