@@ -151,12 +151,7 @@ namespace {
 
 // phi1(x) = (e^x - 1)/x and phi2(x) = (e^x - 1 - x)/x^2 with their derivatives, accurate near 0;
 // x <= 0 here (exponential integrators, e.g. Hochbruck and Ostermann 2010)
-double Phi1(double x) { return std::fabs(x) < 1e-5 ? 1 + x / 2 + x * x / 6 : std::expm1(x) / x; }
-double Phi1Slope(double x) {
-  return std::fabs(x) < 1e-3 ? 0.5 + x / 3 + x * x / 8 : (std::exp(x) * (x - 1) + 1) / (x * x);
-}
-double Phi2(double x) { return std::fabs(x) < 1e-3 ? 0.5 + x / 6 + x * x / 24 : (std::expm1(x) - x) / (x * x); }
-// phi1(x) and phi2(x) from one exponential
+// phi1(x) and phi2(x) from one exponential, by their series near 0
 void Phi1And2(double x, double* phi1, double* phi2) {
   if (std::fabs(x) < 1e-3) {
     *phi1 = 1 + x / 2 + x * x / 6, *phi2 = 0.5 + x / 6 + x * x / 24;
@@ -164,6 +159,19 @@ void Phi1And2(double x, double* phi1, double* phi2) {
   }
   double e = std::expm1(x);
   *phi1 = e / x, *phi2 = (e - x) / (x * x);
+}
+double Phi1(double x) {
+  double phi1 = 0, phi2 = 0;
+  Phi1And2(x, &phi1, &phi2);
+  return phi1;
+}
+double Phi2(double x) {
+  double phi1 = 0, phi2 = 0;
+  Phi1And2(x, &phi1, &phi2);
+  return phi2;
+}
+double Phi1Slope(double x) {
+  return std::fabs(x) < 1e-3 ? 0.5 + x / 3 + x * x / 8 : (std::exp(x) * (x - 1) + 1) / (x * x);
 }
 double Phi2Slope(double x) {
   return std::fabs(x) < 1e-2 ? 1.0 / 6 + x / 12 + x * x / 40 : (x * std::exp(x) - 2 * std::expm1(x) + x) / (x * x * x);

@@ -178,7 +178,6 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
       return std::nullopt;
     }
     c.actuators_.push_back({friction_id, {Role::kFriction, -1, 0}});
-    c.friction_id_ = friction_id;
   } else if (friction_id >= 0) {
     return fail(friction_name, "present but coulomb_friction is not set");
   }

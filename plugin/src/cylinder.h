@@ -77,7 +77,6 @@ class Cylinder {
   ChamberModel chamber_model_[2];
   int command_id_[4] = {-1, -1, -1, -1};  // ctrl sources, in ValveInputs::command order
   int state_id_[4] = {-1, -1, -1, -1};    // act sources, in ValveInputs::state order
-  int friction_id_ = -1;
   int dof_ = -1;                          // the joint's dof when the transmission is a slide or hinge joint
   double static_friction_ = 0;            // transmission frictionloss in actuator units
   std::vector<std::pair<int, ActuatorRole>> actuators_;
