@@ -3,6 +3,7 @@
 //   pneumo rollout MODEL.xml --commands LOG.csv --out OUT.csv   replay a log open loop
 //   pneumo rollout MODEL.xml --duration 2 --set cyl.u=2.5 --out OUT.csv
 //   pneumo generate MODEL.xml --duration 100 --seed 1 --out LOG.csv   closed-loop identification log (rig C)
+//   pneumo identify MODEL.xml LOG.csv --out PARAMS.json --heldout LOG2.csv   fit paper 000's model and physical parameters
 //   pneumo info MODEL.xml                                       cylinders and their signals
 //   pneumo params [--markdown]                                  the MJCF parameter table
 #include <chrono>
@@ -16,6 +17,7 @@
 #include <mujoco/mujoco.h>
 
 #include "generate.h"
+#include "identify_command.h"
 #include "log_csv.h"
 #include "pneumatic/pneumatic.h"
 #include "rollout.h"
@@ -188,6 +190,34 @@ int main(int argc, char** argv) {
   generate->add_option("--noise-pressure", generate_options.noise_pressure, "pressure sensor noise, Pa (std)")->capture_default_str();
   generate->add_option("--noise-position", generate_options.noise_position, "position sensor noise, m (std)")->capture_default_str();
 
+  pneumatic::IdentifyOptions identify_options;
+  CLI::App* identify = app.add_subcommand(
+      "identify", "fit paper 000's parametric pressure model and the physical parameters of the model to a log");
+  identify->add_option("model", identify_options.model_path, "MJCF model with pneumatic cylinders")->required();
+  identify->add_option("log", identify_options.log_path, "training log (shared/spec/log_format.md)")->required();
+  identify->add_option("--out", identify_options.out_path, "PARAMS.json to write")->required();
+  identify->add_option("--heldout", identify_options.heldout_path,
+                       "held-out log: one-step fit % and the 2 s drift of paper 000 Fig. 13 (JSON and PNG)");
+  identify->add_option("--plot", identify_options.plot_path, "drift PNG (default: PARAMS.json's name + .drift.png)");
+  identify->add_option("--write-model", identify_options.write_model_path,
+                       "write a copy of the MJCF with the fitted physical parameters");
+  identify->add_option("--write-identified-model", identify_options.write_identified_model_path,
+                       "write a copy of the MJCF with pressure_model=identified and the fitted c1..c9");
+  identify->add_option("--fit", identify_options.fit_keys,
+                       "physical parameter to fit, <cylinder>:<key> (repeatable; default: each cylinder's usual set)");
+  bool skip_parametric = false, skip_physical = false;
+  identify->add_flag("--skip-parametric", skip_parametric, "do not fit paper 000's c1..c9");
+  identify->add_flag("--skip-physical", skip_physical, "do not fit the physical parameters");
+  identify->add_option("--threads", identify_options.threads, "threads for the fits")->capture_default_str()
+      ->check(CLI::Range(1, 64));
+  identify->footer(
+      "Parametric model (paper 000 eqs. 7-10): per chamber, c1..c9 by bounded least squares (Ceres) on the next-step\n"
+      "prediction of the pressure, Table I's bounds, c_gamma = 0.1 V, c_b and c_s from p_supply and p_exhaust; v is the\n"
+      "logged x, its rate the forward difference (x[t+1] - x[t]) / h. Needs valve=proportional_per_chamber.\n"
+      "Physical parameters: the model's pressures simulated along the measured motion (pneumo rollout --follow-motion)\n"
+      "fitted to the measured ones; standard errors from the covariance at the optimum (Newey-West for residuals\n"
+      "correlated in time), with a flag on each poorly determined parameter naming the reason.");
+
   CLI::App* info = app.add_subcommand("info", "list a model's cylinders and their log signals");
   info->add_option("model", model_path, "MJCF model")->required();
 
@@ -201,6 +231,11 @@ int main(int argc, char** argv) {
     return RunRollout(model_path, commands_path, out_path, duration_given, duration, period, sets, follow_motion);
   }
   if (*generate) return RunGenerate(generate_model, generate_out, generate_options);
+  if (*identify) {
+    identify_options.parametric = !skip_parametric;
+    identify_options.physical = !skip_physical;
+    return pneumatic::RunIdentify(identify_options);
+  }
   if (*info) return RunInfo(model_path);
   if (*params) return RunParams(markdown);
   return 2;

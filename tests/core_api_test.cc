@@ -617,5 +617,51 @@ TEST(StaleInputs, ActDotBeforeTheForcesIsReported) {
   EXPECT_THAT(last_warning, HasSubstr("actuator forces are not current"));
 }
 
+// rig C's "pneumatic:cyl" element with its data replaced by `data`
+std::string RigCWithData(const std::string& data) {
+  std::string xml = ReadText(ShippedModel("rig_per_chamber.xml"));
+  size_t begin = xml.find("data=\"", xml.find("name=\"pneumatic:cyl\"")) + 6;
+  return xml.replace(begin, xml.find('"', begin) - begin, data);
+}
+
+// keys that are only valid together (the identified model needs c1..c9) are set at once, and the
+// configuration text written back into the MJCF gives a model that steps bit for bit the same
+TEST(SetParametersTogether, IdentifiedModelAndItsTextRoundTrip) {
+  mjModel* m = LoadAttached(ReadText(ShippedModel("rig_per_chamber.xml")));
+  ASSERT_NE(m, nullptr);
+  std::string error;
+  // one key alone: the identified model's c1..c9 are required
+  EXPECT_FALSE(SetParameter(m, "cyl", "P.pressure_model", std::string("identified"), &error));
+  EXPECT_THAT(error, HasSubstr("c1"));
+  std::vector<std::pair<std::string, std::string>> identified = {
+      {"P.pressure_model", "identified"}, {"P.c1", "5.1"}, {"P.c2", "2.5"}, {"P.c3", "0.3"},
+      {"P.c4", "1e5"}, {"P.c5", "-10"}, {"P.c6", "3"}, {"P.c7", "20"}, {"P.c8", "0.1"}, {"P.c9", "0.05"}};
+  ASSERT_TRUE(SetParameters(m, "cyl", identified, &error)) << error;
+  EXPECT_EQ(GetParameter(m, "cyl", "P.c7", &error), 20.0);
+  EXPECT_EQ(GetParameter(m, "cyl", "P.pressure_model", &error), 1.0);  // "physical identified"
+  EXPECT_FALSE(GetParameter(m, "cyl", "N.c7", &error)) << "chamber N keeps the physical model";
+
+  std::optional<std::string> text = ConfigurationText(m, "cyl", &error);
+  ASSERT_TRUE(text) << error;
+  EXPECT_THAT(*text, HasSubstr("P.c7=20"));
+  mjModel* written = LoadAttached(RigCWithData(*text));
+  ASSERT_NE(written, nullptr);
+  EXPECT_TRUE(SameBits(PatternRun(m, 2000), PatternRun(written, 2000)));
+  // and it is not the physical model's run
+  mjModel* physical = LoadAttached(ReadText(ShippedModel("rig_per_chamber.xml")));
+  ASSERT_NE(physical, nullptr);
+  EXPECT_FALSE(SameBits(PatternRun(m, 2000), PatternRun(physical, 2000)));
+
+  // all or nothing: one bad value among good ones changes nothing
+  EXPECT_FALSE(SetParameters(m, "cyl", {{"P.c7", "30"}, {"P.c8", "2"}}, &error));
+  EXPECT_THAT(error, HasSubstr("c8"));
+  EXPECT_EQ(GetParameter(m, "cyl", "P.c7", &error), 20.0);
+  EXPECT_FALSE(ConfigurationText(m, "nope", &error));
+  EXPECT_THAT(error, HasSubstr("nope"));
+  mj_deleteModel(physical);
+  mj_deleteModel(written);
+  mj_deleteModel(m);
+}
+
 }  // namespace
 }  // namespace pneumatic

@@ -1,6 +1,7 @@
 // Parameter table, parsing and validation of "pneumatic:<cylinder>" text.
 #include "config.h"
 
+#include <charconv>
 #include <cmath>
 #include <cstdlib>
 #include <map>
@@ -534,9 +535,10 @@ std::string JoinPairs(const std::map<std::string, std::string>& pairs) {
 }  // namespace
 
 std::string FormatNumber(double v) {
+  // std::to_chars without a format: the shortest text that reads back to the same bits
   char buffer[32];
-  std::snprintf(buffer, sizeof(buffer), "%.17g", v);
-  return buffer;
+  auto [end, error] = std::to_chars(buffer, buffer + sizeof(buffer), v);
+  return error == std::errc() ? std::string(buffer, end) : std::string("nan");
 }
 
 int PackedConfigSize() {
@@ -598,16 +600,19 @@ std::optional<double> ConfigValue(const CylinderConfig& config, const std::strin
   return std::strtod(it->second.c_str(), nullptr);
 }
 
-std::optional<CylinderConfig> WithValue(const CylinderConfig& config, const std::string& key, const std::string& value,
-                                        std::string* error) {
+std::optional<CylinderConfig> WithValues(const CylinderConfig& config,
+                                         const std::vector<std::pair<std::string, std::string>>& values,
+                                         std::string* error) {
   std::map<std::string, std::string> pairs = ConfigPairs(config);
-  // a chamber key without prefix sets both chambers, as in MJCF
-  std::string base = key.rfind("P.", 0) == 0 || key.rfind("N.", 0) == 0 ? key.substr(2) : key;
-  const Param* p = FindParam(base);
-  if (p && p->scope == Scope::kChamber && base == key) {
-    pairs.erase("P." + key), pairs.erase("N." + key);
+  for (const auto& [key, value] : values) {
+    // a chamber key without prefix sets both chambers, as in MJCF
+    std::string base = key.rfind("P.", 0) == 0 || key.rfind("N.", 0) == 0 ? key.substr(2) : key;
+    const Param* p = FindParam(base);
+    if (p && p->scope == Scope::kChamber && base == key) {
+      pairs.erase("P." + key), pairs.erase("N." + key);
+    }
+    pairs[key] = value;
   }
-  pairs[key] = value;
   return ParseCylinderConfig(config.name, JoinPairs(pairs), error);
 }
 

@@ -6,6 +6,8 @@
 
 #include <optional>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace pneumatic {
 
@@ -111,7 +113,7 @@ struct CylinderConfig {
 std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const std::string& text,
                                                   std::string* error);
 
-// The configuration as MJCF text: every key that applies, numbers with 17 digits,
+// The configuration as MJCF text: every key that applies, numbers in their shortest exact form,
 // so ParseCylinderConfig(name, FormatConfig(c)) gives c back exactly.
 std::string FormatConfig(const CylinderConfig& c);
 
@@ -127,12 +129,13 @@ std::optional<CylinderConfig> UnpackConfig(const std::string& name, const double
 // *error when the key is unknown, needs a P./N. prefix, or does not apply.
 std::optional<double> ConfigValue(const CylinderConfig& c, const std::string& key, std::string* error);
 
-// A copy of c with `key` set to `value` (text, as in MJCF; a chamber key without
-// prefix sets both chambers), checked exactly as the MJCF is.
-std::optional<CylinderConfig> WithValue(const CylinderConfig& c, const std::string& key, const std::string& value,
-                                        std::string* error);
+// A copy of c with each key set to its value (text, as in MJCF; a chamber key without
+// prefix sets both chambers), in order, checked together exactly as the MJCF is.
+std::optional<CylinderConfig> WithValues(const CylinderConfig& c,
+                                         const std::vector<std::pair<std::string, std::string>>& values,
+                                         std::string* error);
 
-// shortest text that reads back to the same double ("%.17g")
+// the shortest text that reads back to the same double
 std::string FormatNumber(double v);
 
 }  // namespace pneumatic

@@ -382,34 +382,56 @@ int FindCylinder(const CompiledModel& model, const std::string& name, std::strin
   return -1;
 }
 
+// the compiled model of m and, in *config, the configuration of its cylinder `name`; null and
+// *error if m is not attached or has no such cylinder
+std::shared_ptr<const CompiledModel> CompiledCylinder(const mjModel* m, const std::string& name, std::string* error,
+                                                      const CylinderConfig** config) {
+  std::shared_ptr<const CompiledModel> model = Compiled(m, error);
+  if (!model) return nullptr;
+  int index = FindCylinder(*model, name, error);
+  if (index < 0) return nullptr;
+  *config = &model->cylinders[index].config();
+  return model;
+}
+
 }  // namespace
 
 std::optional<double> GetParameter(const mjModel* m, const std::string& cylinder, const std::string& key,
                                    std::string* error) {
   std::string ignored;
-  if (!error) error = &ignored;
-  std::shared_ptr<const CompiledModel> model = Compiled(m, error);
+  const CylinderConfig* config = nullptr;
+  std::shared_ptr<const CompiledModel> model = CompiledCylinder(m, cylinder, error ? error : &ignored, &config);
   if (!model) return std::nullopt;
-  int index = FindCylinder(*model, cylinder, error);
-  if (index < 0) return std::nullopt;
-  return ConfigValue(model->cylinders[index].config(), key, error);
+  return ConfigValue(*config, key, error ? error : &ignored);
 }
 
-bool SetParameter(mjModel* m, const std::string& cylinder, const std::string& key, const std::string& value,
-                  std::string* error) {
+bool SetParameters(mjModel* m, const std::string& cylinder,
+                   const std::vector<std::pair<std::string, std::string>>& values, std::string* error) {
   std::string ignored;
   if (!error) error = &ignored;
   std::shared_ptr<const CompiledModel> model = Compiled(m, error);
   if (!model) return false;
   int index = FindCylinder(*model, cylinder, error);
   if (index < 0) return false;
-  std::optional<CylinderConfig> config = WithValue(model->cylinders[index].config(), key, value, error);
+  std::optional<CylinderConfig> config = WithValues(model->cylinders[index].config(), values, error);
   if (!config) return false;
   std::optional<Cylinder> bound = Cylinder::FromModel(m, std::move(*config), true, error);
   if (!bound) return false;
   std::vector<Cylinder> cylinders = model->cylinders;
   cylinders[index] = std::move(*bound);
   return StoreModel(m, Finish(m, std::move(cylinders)), error);
+}
+
+bool SetParameter(mjModel* m, const std::string& cylinder, const std::string& key, const std::string& value,
+                  std::string* error) {
+  return SetParameters(m, cylinder, {{key, value}}, error);
+}
+
+std::optional<std::string> ConfigurationText(const mjModel* m, const std::string& cylinder, std::string* error) {
+  std::string ignored;
+  const CylinderConfig* config = nullptr;
+  if (!CompiledCylinder(m, cylinder, error ? error : &ignored, &config)) return std::nullopt;
+  return FormatConfig(*config);
 }
 
 bool SetParameter(mjModel* m, const std::string& cylinder, const std::string& key, double value, std::string* error) {

@@ -19,6 +19,7 @@
 
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <mujoco/mujoco.h>
@@ -61,6 +62,17 @@ std::optional<double> GetParameter(const mjModel* m, const std::string& cylinder
 bool SetParameter(mjModel* m, const std::string& cylinder, const std::string& key, double value, std::string* error);
 bool SetParameter(mjModel* m, const std::string& cylinder, const std::string& key, const std::string& value,
                   std::string* error);
+
+// Sets several parameters of one cylinder at once, checked together (text values as in
+// MJCF), e.g. {{"P.pressure_model", "identified"}, {"P.c1", "5.02"}, ...}: keys that only
+// apply, or are only required, together. All or nothing, as SetParameter.
+bool SetParameters(mjModel* m, const std::string& cylinder,
+                   const std::vector<std::pair<std::string, std::string>>& values, std::string* error);
+
+// The cylinder's configuration as the text of its MJCF element "pneumatic:<cylinder>": every
+// key that applies, numbers written so they read back to the same bits. With SetParameter,
+// how a tool writes a model with changed parameters. nullopt and *error as GetParameter.
+std::optional<std::string> ConfigurationText(const mjModel* m, const std::string& cylinder, std::string* error);
 
 // Chambers of a cylinder: P is the one whose pressure pushes x positive.
 enum class Chamber { kP = 0, kN = 1 };
