@@ -64,7 +64,8 @@ struct ResolvedKey {
 
 // the model's value of a key; for a chamber key without prefix, the common value of P and N
 std::optional<double> InitialValue(const mjModel* m, const FitKey& k, const ParameterDoc& doc, std::string* error) {
-  if (doc.scope != "chamber" || BaseKey(k.key) != k.key) return GetParameter(m, k.cylinder, k.key, error);
+  bool chamber_key = doc.scope.rfind("chamber", 0) == 0;  // "chamber" or "chamber, flow=..."
+  if (!chamber_key || BaseKey(k.key) != k.key) return GetParameter(m, k.cylinder, k.key, error);
   std::optional<double> p = GetParameter(m, k.cylinder, "P." + k.key, error);
   std::optional<double> n = GetParameter(m, k.cylinder, "N." + k.key, error);
   if (!p || !n) return std::nullopt;
@@ -469,6 +470,10 @@ PhysicalFit FitPhysical(const mjModel* m, const log::Log& log, const PhysicalFit
   solver.parameter_tolerance = 1e-8;
   solver.function_tolerance = 1e-7;
   solver.gradient_tolerance = 1e-12;
+  // no projected line search at the bounds: it asks for the Jacobian (p rollouts) at every
+  // candidate, rejected ones included; a candidate beyond a bound is refused by SetParameter and
+  // Levenberg-Marquardt shrinks its step instead
+  solver.max_num_line_search_step_size_iterations = 0;
   solver.logging_type = ceres::SILENT;
   solver.update_state_every_iteration = true;
   Progress progress(options, keys, z.data(), fit.residuals);
