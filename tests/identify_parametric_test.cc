@@ -186,6 +186,52 @@ TEST(FitChambers, GivesTheSameBitsWhateverTheThreads) {
   }
 }
 
+// Coarse-to-fine (ParametricFitOptions::coarse_samples): a long series is first fitted on every
+// k-th pair, then on all pairs from there with QR-compressed blocks; the result must be the
+// full-data optimum, i.e. what the fit gives with every iteration on the full data.
+TEST(FitChamber, CoarseToFineReachesTheFullDataOptimum) {
+  const std::array<double, 9> c_true = {5.1, 1.5, 0.3, 2e4, 20, 12, 60, 0.1, 0.1};
+  ChamberSeries s = SyntheticSeries(c_true, 40000, 21);
+  {
+    // noise-free: the true parameters, as from every start of the recovery test
+    ParametricFitOptions options;
+    options.coarse_samples = 5000;  // every 8th pair
+    const ParametricFit fit = FitChamber(s, options);
+    ASSERT_EQ(fit.error, "");
+    EXPECT_TRUE(fit.converged);
+    EXPECT_GT(fit.coarse_iterations, 0);
+    for (size_t k = 0; k < 9; ++k) {
+      EXPECT_NEAR(fit.model.c[k], c_true[k], 1e-6 * std::max(std::fabs(c_true[k]), 1.0)) << "c" << k + 1;
+    }
+  }
+  for (double& p : s.p) p += 800 * std::sin(p);  // a deterministic disturbance, so that no fit is exact
+  ParametricFitOptions coarse_to_fine, full_only;
+  coarse_to_fine.coarse_samples = 5000;
+  full_only.coarse_samples = 0;
+  const ParametricFit a = FitChamber(s, coarse_to_fine), b = FitChamber(s, full_only);
+  ASSERT_EQ(a.error, "");
+  ASSERT_EQ(b.error, "");
+  EXPECT_TRUE(a.converged);
+  EXPECT_TRUE(b.converged);
+  EXPECT_GT(a.coarse_iterations, 0);
+  EXPECT_EQ(b.coarse_iterations, 0);
+  for (size_t k = 0; k < 9; ++k) {
+    // the same optimum to within the solver's tolerances: a small fraction of the standard error
+    EXPECT_NEAR(a.model.c[k], b.model.c[k], 0.01 * b.standard_error[k]) << "c" << k + 1;
+    EXPECT_NEAR(a.standard_error[k], b.standard_error[k], 1e-3 * b.standard_error[k]) << "c" << k + 1;
+  }
+  EXPECT_NEAR(a.rms_residual, b.rms_residual, 1e-6 * b.rms_residual);
+  // and the same bits on any thread
+  const std::vector<ParametricFit> threaded = FitChambers({s, s}, coarse_to_fine, 2);
+  ASSERT_EQ(threaded.size(), 2u);
+  for (const ParametricFit& fit : threaded) {
+    std::vector<double> x(fit.model.c.begin(), fit.model.c.end()), y(a.model.c.begin(), a.model.c.end());
+    x.insert(x.end(), fit.standard_error.begin(), fit.standard_error.end());
+    y.insert(y.end(), a.standard_error.begin(), a.standard_error.end());
+    EXPECT_TRUE(testing::SameBits(x, y));
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // (3) closed-loop logs of rig C (paper 000 V.C): fit on one, drift on another
 

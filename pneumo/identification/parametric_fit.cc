@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <memory>
 #include <string>
@@ -39,42 +40,165 @@ double C6Limit(const ChamberSeries& s) {
   return std::min(limit, 1e4);  // the MJCF's range of c6
 }
 
-// Residuals (p_{t+1} - p^_{t+1}) / c_s of samples [begin, end) of one series, with the analytic
-// Jacobian: one Ceres block of a few thousand samples (one block per sample costs more in Ceres's
-// bookkeeping than the model itself). Scaling by 1/c_s makes the residuals O(1).
+// The intermediate quantities of eqs. 7-10 at one sample, shared by the prediction with and
+// without derivatives so that both give the same bits (the fit's trial steps use the latter)
+struct Step {
+  double u_hat, u_hat2, a, root_a, root_u, k, denominator, s, r, E, predicted;
+};
+
+inline Step ComputeStep(const ParametricModel& m, double p, double u, double x, double x_rate, double h) {
+  // eq. 7 with the unclamped r of eq. 10e: p^ = s + (p - s) E, E = e^(-r h)
+  Step st;
+  st.u_hat = u - m.c[0];                                                       // 10a
+  st.u_hat2 = st.u_hat * st.u_hat;
+  st.a = m.c[1] * st.u_hat + m.c[2] * st.u_hat2 * st.u_hat;                   // 10b
+  st.root_a = std::sqrt(st.a * st.a + 1);
+  st.root_u = std::sqrt(st.u_hat2 + m.c_gamma * m.c_gamma);
+  st.k = st.root_u - m.c_gamma + m.c[8] + m.c[7] * st.u_hat;                  // 9, 10d
+  st.denominator = 1 + m.c[5] * x;
+  st.s = m.c_b + m.c_s * (st.a / st.root_a) + m.c[3] * x_rate;                // 8, 10c
+  st.r = (m.c[6] * st.k + m.c[4] * x_rate) / st.denominator;                 // 10e
+  st.E = std::exp(-st.r * h);
+  st.predicted = st.s + (p - st.s) * st.E;                                    // 7
+  return st;
+}
+
+// The next-step predictions a fit is made of: row t of a series (p_t, u_t, x_t, x'_t) and the
+// pressure p_{t+1} it predicts, for every row or for every k-th row (the coarse stage)
+struct Samples {
+  std::vector<double> p, u, x, x_rate, p_next;
+  double period = 0;
+  size_t size() const { return p.size(); }
+};
+
+Samples TakeSamples(const ChamberSeries& s, size_t stride) {
+  Samples d;
+  d.period = s.period;
+  for (size_t t = 0; t + 1 < s.p.size(); t += stride) {
+    d.p.push_back(s.p[t]);
+    d.u.push_back(s.u[t]);
+    d.x.push_back(s.x[t]);
+    d.x_rate.push_back(s.x_rate[t]);
+    d.p_next.push_back(s.p[t + 1]);
+  }
+  return d;
+}
+
+// The residuals (p_{t+1} - p^_{t+1}) / c_s of samples [begin, end) into r[0 .. end-begin), and if
+// J is not null their derivatives d r / d c_k into column k of the column-major J of leading
+// dimension ld. Scaling by 1/c_s makes the residuals O(1). False if a residual is not finite.
+bool ScaledResiduals(const ParametricModel& m, const Samples& d, size_t begin, size_t end, double* r, double* J,
+                     size_t ld) {
+  const double inv_cs = 1 / m.c_s;
+  std::array<double, 9> dp{};
+  for (size_t t = begin; t < end; ++t) {
+    const size_t i = t - begin;
+    const double predicted =
+        J ? PredictNextWithJacobian(m, d.p[t], d.u[t], d.x[t], d.x_rate[t], d.period, &dp)
+          : ComputeStep(m, d.p[t], d.u[t], d.x[t], d.x_rate[t], d.period).predicted;  // no derivatives: half the work
+    r[i] = (d.p_next[t] - predicted) * inv_cs;
+    if (!std::isfinite(r[i])) return false;
+    if (J) {
+      for (size_t k = 0; k < 9; ++k) J[k * ld + i] = -dp[k] * inv_cs;
+    }
+  }
+  return true;
+}
+
+// One Ceres residual block: the residuals of samples [begin, end), with the analytic Jacobian: a
+// few thousand samples (one block per sample costs more in Ceres's bookkeeping than the model).
+//
+// Compressed (the full-data stage after a coarse one, see SolveFrom): the block hands Ceres its
+// QR-compressed form. With the block's n x 10 matrix [J | r] = Q T (Householder QR, T upper
+// triangular) it returns the min(n, 10) residuals q = T(:, 9) = Q^T r and the Jacobian
+// T(:, 0..8) = [R; 0]. Q being orthogonal, ||q||^2 = ||r||^2 (the cost), R^T R = J^T J,
+// [R; 0]^T q = J^T r (the gradient), ||[R; 0] d + q||^2 = ||J d + r||^2 for every step d
+// (Levenberg-Marquardt's subproblem, Ceres's model cost change) and R's column norms are J's
+// (Ceres's Jacobi scaling): the iterations are those on the n residuals in exact arithmetic, and
+// QR does not square the conditioning as the normal equations do (Golub and Van Loan, Matrix
+// Computations, 4th ed., ch. 5), while Ceres handles 10 rows per block instead of 2000 (its
+// per-residual bookkeeping and its QR of the 10^5 x 9 Jacobian, which leaves the cache, were
+// half of the fit's time). A cost-only evaluation returns (||r||, 0, ...): the same cost.
+// The rounding of the steps differs, though, and a start far from the optimum, whose path runs
+// along the bounds, is sensitive to it: the recovery test's start 3 ends on c3's bound with
+// compressed blocks (as it did with DENSE_NORMAL_CHOLESKY). Far starts therefore use the blocks
+// as they are.
+//
+// Each block keeps its last evaluation and gives it back when Ceres asks for the same parameters
+// again, which it does twice per iteration: its projected line search (the bounds) evaluates the
+// trial point with its gradient (hence the Jacobian), then the trust region evaluates the same
+// point's cost and, once the step is accepted, its residuals and Jacobian. The numbers are those
+// a new evaluation would give, to the bit; only the repeated work goes.
 class BlockCost : public ceres::CostFunction {
  public:
-  BlockCost(const ChamberSeries& s, size_t begin, size_t end) : s_(s), begin_(begin), end_(end) {
-    set_num_residuals(static_cast<int>(end - begin));
+  static constexpr size_t kCompressed = 10;  // rows of a compressed block: c1..c9 and the residuals
+
+  BlockCost(const ChamberSeries& series, const Samples& d, size_t begin, size_t end, bool compressed)
+      : series_(series), d_(d), begin_(begin), end_(end), compressed_(compressed) {
+    set_num_residuals(static_cast<int>(compressed ? std::min(end - begin, kCompressed) : end - begin));
     mutable_parameter_block_sizes()->push_back(9);
+    last_c_.fill(std::numeric_limits<double>::quiet_NaN());  // no evaluation yet
   }
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
-    ParametricModel model = ModelFor(s_, {});
-    std::copy(parameters[0], parameters[0] + 9, model.c.begin());
-    const double inv_cs = 1 / model.c_s;
-    std::array<double, 9> dp{};
-    for (size_t t = begin_; t < end_; ++t) {
-      const size_t i = t - begin_;
-      double predicted = PredictNextWithJacobian(model, s_.p[t], s_.u[t], s_.x[t], s_.x_rate[t], s_.period, &dp);
-      residuals[i] = (s_.p[t + 1] - predicted) * inv_cs;
-      if (!std::isfinite(residuals[i])) return false;  // Ceres rejects the step
-      if (jacobians && jacobians[0]) {
-        for (int k = 0; k < 9; ++k) jacobians[0][i * 9 + static_cast<size_t>(k)] = -dp[static_cast<size_t>(k)] * inv_cs;
-      }
+    const bool jacobian = jacobians && jacobians[0];
+    if (std::memcmp(parameters[0], last_c_.data(), sizeof(last_c_)) != 0 || (jacobian && !last_has_jacobian_)) {
+      std::copy(parameters[0], parameters[0] + 9, last_c_.begin());
+      last_valid_ = Compute(jacobian);
+      last_has_jacobian_ = jacobian;
     }
+    if (!last_valid_) return false;  // Ceres rejects the step
+    const size_t rows = static_cast<size_t>(num_residuals());
+    std::copy(out_r_.begin(), out_r_.begin() + rows, residuals);
+    if (jacobian) std::copy(out_J_.begin(), out_J_.begin() + rows * 9, jacobians[0]);
     return true;
   }
 
  private:
-  const ChamberSeries& s_;
-  size_t begin_, end_;  // predictions from samples begin..end-1
+  // the residuals (and Jacobian, row-major) at last_c_ into out_r_ (out_J_), compressed or not;
+  // false if not finite
+  bool Compute(bool jacobian) const {
+    const size_t n = end_ - begin_, rows = static_cast<size_t>(num_residuals());
+    A_.resize(static_cast<Eigen::Index>(n), 10);  // [J | r], column-major
+    if (!ScaledResiduals(ModelFor(series_, last_c_), d_, begin_, end_, A_.col(9).data(),
+                         jacobian ? A_.data() : nullptr, n)) {
+      return false;
+    }
+    out_r_.assign(rows, 0.0);
+    out_J_.resize(jacobian ? rows * 9 : 0);
+    if (compressed_ && !jacobian) {
+      out_r_[0] = A_.col(9).norm();
+      return true;
+    }
+    if (compressed_) {
+      Eigen::HouseholderQR<Eigen::Ref<Eigen::MatrixXd>> qr(A_);  // in place: T in A_'s upper triangle
+    }
+    for (size_t i = 0; i < rows; ++i) {
+      const auto row = static_cast<Eigen::Index>(i);
+      out_r_[i] = A_(row, 9);
+      for (size_t k = 0; jacobian && k < 9; ++k) {
+        out_J_[i * 9 + k] = compressed_ && k < i ? 0.0 : A_(row, static_cast<Eigen::Index>(k));
+      }
+    }
+    return !compressed_ || A_.topRows(static_cast<Eigen::Index>(rows)).allFinite();
+  }
+
+  const ChamberSeries& series_;  // c_b, c_s
+  const Samples& d_;
+  size_t begin_, end_;  // samples begin..end-1
+  bool compressed_;
+  // the last evaluation: its parameters (NaN: none yet) and what was handed to Ceres
+  mutable std::array<double, 9> last_c_;
+  mutable bool last_has_jacobian_ = false, last_valid_ = false;
+  mutable std::vector<double> out_r_, out_J_;
+  mutable Eigen::MatrixXd A_;
 };
 
 struct StartResult {
   std::array<double, 9> c{};
   double cost = std::numeric_limits<double>::infinity();
-  int iterations = 0;
+  int iterations = 0;         // on the full data
+  int coarse_iterations = 0;  // on the coarse subsample
   bool converged = false;
   std::string message;
 };
@@ -84,15 +208,16 @@ std::array<double, 9> Clip(std::array<double, 9> c, const ParameterBounds& b) {
   return c;
 }
 
-StartResult SolveFrom(const ChamberSeries& s, const ParameterBounds& bounds, const std::array<double, 9>& guess,
-                      const ParametricFitOptions& options) {
+// Ceres's Levenberg-Marquardt on samples d from c (within the bounds) to convergence
+StartResult Minimize(const ChamberSeries& s, const Samples& d, bool compressed, const ParameterBounds& bounds,
+                     const std::array<double, 9>& c, const ParametricFitOptions& options) {
   StartResult result;
-  result.c = Clip(guess, bounds);
+  result.c = c;
   ceres::Problem problem;
-  const size_t pairs = s.p.size() - 1;
   const size_t block = static_cast<size_t>(std::max(options.samples_per_block, 1));
-  for (size_t begin = 0; begin < pairs; begin += block) {
-    problem.AddResidualBlock(new BlockCost(s, begin, std::min(begin + block, pairs)), nullptr, result.c.data());
+  for (size_t begin = 0; begin < d.size(); begin += block) {
+    problem.AddResidualBlock(new BlockCost(s, d, begin, std::min(begin + block, d.size()), compressed), nullptr,
+                             result.c.data());
   }
   for (int k = 0; k < 9; ++k) {
     problem.SetParameterLowerBound(result.c.data(), k, bounds.lower[static_cast<size_t>(k)]);
@@ -121,18 +246,30 @@ StartResult SolveFrom(const ChamberSeries& s, const ParameterBounds& bounds, con
   return result;
 }
 
+// One start, coarse to fine (the project's own acceleration): Levenberg-Marquardt to convergence
+// on the coarse subsample if any (every k-th pair: the same objective in expectation, 1/k of its
+// cost per iteration), then on all pairs from there, with compressed blocks (BlockCost), until
+// the full-data convergence criteria hold. The result is the full-data optimum; the full-data
+// stage starts within a few standard errors of it. A coarse stage without a usable solution is
+// skipped: the full data from the guess, as without a coarse stage.
+StartResult SolveFrom(const ChamberSeries& s, const Samples& full, const Samples* coarse, const ParameterBounds& bounds,
+                      const std::array<double, 9>& guess, const ParametricFitOptions& options) {
+  std::array<double, 9> from = Clip(guess, bounds);
+  StartResult first;
+  if (coarse) first = Minimize(s, *coarse, false, bounds, from, options);
+  const bool near = coarse && std::isfinite(first.cost);
+  StartResult result = Minimize(s, full, near, bounds, near ? first.c : from, options);
+  result.coarse_iterations = first.iterations;
+  return result;
+}
+
 // the scaled residuals and their Jacobian over the whole series, for the standard errors
-void ResidualsAndJacobian(const ChamberSeries& s, const ParametricModel& model, Eigen::MatrixXd* J,
-                          Eigen::VectorXd* r) {
-  const Eigen::Index pairs = static_cast<Eigen::Index>(s.p.size() - 1);
+void ResidualsAndJacobian(const Samples& d, const ParametricModel& model, Eigen::MatrixXd* J, Eigen::VectorXd* r) {
+  const Eigen::Index pairs = static_cast<Eigen::Index>(d.size());
   J->resize(pairs, 9);
   r->resize(pairs);
-  std::array<double, 9> dp{};
-  for (Eigen::Index i = 0; i < pairs; ++i) {
-    const size_t t = static_cast<size_t>(i);
-    (*r)(i) = (s.p[t + 1] - PredictNextWithJacobian(model, s.p[t], s.u[t], s.x[t], s.x_rate[t], s.period, &dp)) /
-              model.c_s;
-    for (Eigen::Index k = 0; k < 9; ++k) (*J)(i, k) = -dp[static_cast<size_t>(k)] / model.c_s;
+  if (!ScaledResiduals(model, d, 0, d.size(), r->data(), J->data(), d.size())) {
+    r->setConstant(std::numeric_limits<double>::quiet_NaN());  // EstimateUncertainty says so
   }
 }
 
@@ -175,10 +312,10 @@ void AddWarnings(const ChamberSeries& s, const ParameterBounds& bounds, const St
   }
 }
 
-void AddUncertainty(const ChamberSeries& s, ParametricFit* fit) {
+void AddUncertainty(const ChamberSeries& s, const Samples& full, ParametricFit* fit) {
   Eigen::MatrixXd J;
   Eigen::VectorXd r;
-  ResidualsAndJacobian(s, fit->model, &J, &r);
+  ResidualsAndJacobian(full, fit->model, &J, &r);
   UncertaintyOptions options;
   options.lag_window = 0;  // one-step residuals: the textbook covariance
   std::vector<double> values(fit->model.c.begin(), fit->model.c.end());
@@ -231,39 +368,27 @@ double PredictNext(const ParametricModel& model, double p, double u, double x, d
 
 double PredictNextWithJacobian(const ParametricModel& m, double p, double u, double x, double x_rate, double h,
                                std::array<double, 9>* jacobian) {
-  // eq. 7 with the unclamped r of eq. 10e: p^ = s + (p - s) E, E = e^(-r h)
-  const double u_hat = u - m.c[0];
-  const double u_hat2 = u_hat * u_hat;
-  const double a = m.c[1] * u_hat + m.c[2] * u_hat2 * u_hat;
-  const double root_a = std::sqrt(a * a + 1);
-  const double g = a / root_a;
-  const double dg_da = 1 / (root_a * root_a * root_a);  // g'(a) = (a^2 + 1)^(-3/2)
-  const double root_u = std::sqrt(u_hat2 + m.c_gamma * m.c_gamma);
-  const double k = root_u - m.c_gamma + m.c[8] + m.c[7] * u_hat;
-  const double denominator = 1 + m.c[5] * x;
-  const double s = m.c_b + m.c_s * g + m.c[3] * x_rate;
-  const double r = (m.c[6] * k + m.c[4] * x_rate) / denominator;
-  const double E = std::exp(-r * h);
-  const double predicted = s + (p - s) * E;
-
+  const Step st = ComputeStep(m, p, u, x, x_rate, h);
   // chain rule: dp^/ds = 1 - E, dp^/dr = -(p - s) h E
-  const double dp_ds = 1 - E;
-  const double dp_dr = -(p - s) * h * E;
+  const double dp_ds = 1 - st.E;
+  const double dp_dr = -(p - st.s) * h * st.E;
+  const double dg_da = 1 / (st.root_a * st.root_a * st.root_a);  // g'(a) = (a^2 + 1)^(-3/2)
   const double ds_da = m.c_s * dg_da;
-  const double da_du_hat = m.c[1] + 3 * m.c[2] * u_hat2;
-  const double dk_du_hat = u_hat / root_u + m.c[7];
+  const double da_du_hat = m.c[1] + 3 * m.c[2] * st.u_hat2;
+  const double dk_du_hat = st.u_hat / st.root_u + m.c[7];
+  const double denominator = st.denominator;
   std::array<double, 9>& J = *jacobian;
   // c1 enters through u^ = u - c1 in both s and r
   J[0] = dp_ds * (-ds_da * da_du_hat) + dp_dr * (-m.c[6] * dk_du_hat / denominator);
-  J[1] = dp_ds * ds_da * u_hat;                      // c2
-  J[2] = dp_ds * ds_da * u_hat2 * u_hat;             // c3
-  J[3] = dp_ds * x_rate;                             // c4
-  J[4] = dp_dr * x_rate / denominator;               // c5
-  J[5] = dp_dr * (-r * x / denominator);             // c6
-  J[6] = dp_dr * k / denominator;                    // c7
-  J[7] = dp_dr * m.c[6] * u_hat / denominator;       // c8
-  J[8] = dp_dr * m.c[6] / denominator;               // c9
-  return predicted;
+  J[1] = dp_ds * ds_da * st.u_hat;                      // c2
+  J[2] = dp_ds * ds_da * st.u_hat2 * st.u_hat;          // c3
+  J[3] = dp_ds * x_rate;                                // c4
+  J[4] = dp_dr * x_rate / denominator;                  // c5
+  J[5] = dp_dr * (-st.r * x / denominator);             // c6
+  J[6] = dp_dr * st.k / denominator;                    // c7
+  J[7] = dp_dr * m.c[6] * st.u_hat / denominator;       // c8
+  J[8] = dp_dr * m.c[6] / denominator;                  // c9
+  return st.predicted;
 }
 
 ParameterBounds BoundsFor(const ChamberSeries& s) {
@@ -312,17 +437,17 @@ ParametricFit FitChamber(const ChamberSeries& s, const ParametricFitOptions& opt
   std::vector<std::array<double, 9>> guesses;
   if (options.use_default_guess) guesses.push_back(DefaultInitialGuess(s));
   guesses.insert(guesses.end(), options.initial_guesses.begin(), options.initial_guesses.end());
+  const Samples full = TakeSamples(s, 1);
+  const size_t stride = options.coarse_samples > 0 ? full.size() / static_cast<size_t>(options.coarse_samples) : 0;
+  const Samples coarse = stride >= 4 ? TakeSamples(s, stride) : Samples{};
   StartResult best;
   std::string last_message;
   for (const auto& guess : guesses) {
-    StartResult start = SolveFrom(s, bounds, guess, options);
+    const StartResult start = SolveFrom(s, full, stride >= 4 ? &coarse : nullptr, bounds, guess, options);
     fit.iterations += start.iterations;
+    fit.coarse_iterations += start.coarse_iterations;
     last_message = start.message;
-    if (start.cost < best.cost) {
-      const int iterations = fit.iterations;
-      best = start;
-      fit.iterations = iterations;
-    }
+    if (start.cost < best.cost) best = start;
   }
   if (guesses.empty()) {
     fit.error = s.name + ": no initial guess (use_default_guess is false and initial_guesses is empty)";
@@ -337,7 +462,7 @@ ParametricFit FitChamber(const ChamberSeries& s, const ParametricFitOptions& opt
   const OneStepScore score = ScoreOneStep(s, fit.model);
   fit.rms_residual = score.rms_residual;
   fit.one_step_fit_pct = score.fit_pct;
-  AddUncertainty(s, &fit);
+  AddUncertainty(s, full, &fit);
   AddWarnings(s, bounds, best, &fit);
   return fit;
 }

@@ -67,10 +67,17 @@ struct ParametricFitOptions {
   std::vector<std::array<double, 9>> initial_guesses;
   // false: only initial_guesses (at least one), e.g. to check that each start reaches the same fit
   bool use_default_guess = true;
-  int max_iterations = 200;
+  int max_iterations = 200;  // per stage (coarse, full data) and start
   // samples per Ceres residual block: large enough that per-block overhead is negligible, small
   // enough that a block's Jacobian stays in cache
   int samples_per_block = 2000;
+  // Coarse-to-fine (the project's own acceleration; parametric_fit.cc SolveFrom): on a series of
+  // at least 4 coarse_samples pairs, each start first runs to convergence on every k-th pair,
+  // k = pairs / coarse_samples (the same objective in expectation, k times cheaper), and the fit
+  // then continues on ALL pairs from there (each block of samples_per_block handed to Ceres
+  // QR-compressed) until the full-data convergence criteria hold, so the result is the full-data
+  // optimum. 0: every iteration on the full data (10^5 pairs: about 2.7x slower).
+  int coarse_samples = 6000;
   double function_tolerance = 1e-10;  // Ceres: relative decrease of the cost at convergence
   double parameter_tolerance = 1e-10;
   double gradient_tolerance = 1e-12;
@@ -83,7 +90,8 @@ struct ParametricFit {
   double rms_residual = 0;    // Pa: of p_{t+1} - p^_{t+1} on the training data (clamped prediction)
   // on the training data, 100 (1 - ||y - y^|| / ||y - mean(y)||), y = p_{t+1}
   double one_step_fit_pct = 0;
-  int iterations = 0;         // Ceres iterations, summed over the starts
+  int iterations = 0;         // Ceres iterations on the full data, summed over the starts
+  int coarse_iterations = 0;  // Ceres iterations on the coarse subsample, summed over the starts
   bool converged = false;     // the kept start ended on a convergence criterion
   std::vector<std::string> warnings;  // e.g. "c2, c3 poorly determined: ..."
   std::string error;          // non-empty: no fit (model is the initial guess)
