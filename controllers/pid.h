@@ -28,6 +28,11 @@ class Pid {
   double Update(double reference, double position);
   void Reset() { integral_ = 0, has_previous_ = false; }
 
+  // the state: {integral of the error (error unit x s), previous position, 1 if there is one}
+  static constexpr int kStateSize = 3;
+  void GetState(double* out) const { out[0] = integral_, out[1] = previous_position_, out[2] = has_previous_; }
+  void SetState(const double* in) { integral_ = in[0], previous_position_ = in[1], has_previous_ = in[2] != 0; }
+
  private:
   PidGains gains_;
   double period_;

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "pid.h"
+#include "random_stream.h"
 #include "pneumatic/pneumatic.h"
 #include "rollout.h"
 
@@ -26,30 +27,6 @@ constexpr double kCoContractionMean = 0.25, kCoContractionAmplitude = 0.75;  // 
 constexpr double kValveCentre = 5, kValveMin = 3, kValveMax = 7;              // V
 constexpr PidGains kGains{/*kp=*/60, /*ki=*/60, /*kd=*/1.5, /*u_offset=*/0, /*u_min=*/-4, /*u_max=*/4};
 
-// one random stream per (seed, cylinder, purpose): SplitMix64 of the three, feeding mt19937_64
-// (whose output the standard fixes); uniform and Gaussian draws written out here, so the log
-// does not depend on the standard library's distributions
-class Stream {
- public:
-  Stream(std::uint64_t seed, std::uint64_t cylinder, std::uint64_t purpose)
-      : engine_(Mix(Mix(Mix(seed) ^ cylinder) ^ purpose)) {}
-  double Uniform() { return static_cast<double>(engine_() >> 11) * 0x1.0p-53; }  // [0, 1)
-  double Uniform(double lo, double hi) { return lo + (hi - lo) * Uniform(); }
-  double Gaussian() {  // Box-Muller, one draw per call
-    double u1 = 1 - Uniform(), u2 = Uniform();
-    return std::sqrt(-2 * std::log(u1)) * std::cos(2 * kPi * u2);
-  }
-
- private:
-  static std::uint64_t Mix(std::uint64_t z) {
-    z += 0x9e3779b97f4a7c15ULL;
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    return z ^ (z >> 31);
-  }
-  std::mt19937_64 engine_;
-};
-
 struct Sine {
   double amplitude, frequency, phase;
   double operator()(double t) const { return amplitude * std::sin(2 * kPi * frequency * t + phase); }
@@ -66,25 +43,6 @@ struct Channel {
   Stream noise;
   Pid pid;
 };
-
-std::string ValveName(const mjModel* m, const CylinderInfo& c) {
-  std::string ignored;
-  std::optional<double> index = GetParameter(m, c.name, "valve", &ignored);
-  for (const ParameterDoc& p : Parameters()) {
-    if (p.key != "valve" || !index) continue;
-    std::vector<std::string> choices;
-    size_t start = 0;
-    while (start < p.valid.size()) {
-      size_t end = p.valid.find(' ', start);
-      if (end == std::string::npos) end = p.valid.size();
-      if (end > start) choices.push_back(p.valid.substr(start, end - start));
-      start = end + 1;
-    }
-    long i = std::lround(*index);
-    if (i >= 0 && static_cast<size_t>(i) < choices.size()) return choices[static_cast<size_t>(i)];
-  }
-  return "?";
-}
 
 }  // namespace
 
@@ -122,7 +80,7 @@ GenerateResult Generate(const mjModel* m, const GenerateOptions& options) {
       if (signal == "uN") ch.actuator_uN = actuator;
     }
     if (ch.actuator_uP < 0 || ch.actuator_uN < 0 || c.command_actuators.size() != 2) {
-      return fail("cylinder '" + c.name + "' has valve=" + ValveName(m, c) +
+      return fail("cylinder '" + c.name + "' has valve=" + GetChoice(m, c.name, "valve", nullptr).value_or("?") +
                   ": generate drives one proportional valve per chamber (valve=proportional_per_chamber, "
                   "commands uP and uN, paper 000's set-up, rig C)");
     }

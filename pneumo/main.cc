@@ -2,6 +2,7 @@
 //
 //   pneumo rollout MODEL.xml --commands LOG.csv --out OUT.csv   replay a log open loop
 //   pneumo rollout MODEL.xml --duration 2 --set cyl.u=2.5 --out OUT.csv
+//   pneumo rollout MODEL.xml --controller pid --reference GESTURE.csv --duration 10 --out OUT.csv   closed loop
 //   pneumo generate MODEL.xml --duration 100 --seed 1 --out LOG.csv   closed-loop identification log (rig C)
 //   pneumo identify MODEL.xml LOG.csv --out PARAMS.json --heldout LOG2.csv   fit paper 000's model and physical parameters
 //   pneumo info MODEL.xml                                       cylinders and their signals
@@ -21,6 +22,7 @@
 #include "log_csv.h"
 #include "pneumatic/pneumatic.h"
 #include "rollout.h"
+#include "rollout_command.h"
 
 namespace {
 
@@ -160,6 +162,25 @@ int main(int argc, char** argv) {
   bool follow_motion = false;
   rollout->add_flag("--follow-motion", follow_motion,
                     "reset pistons to the log's x and v at every row: simulate pressures only (paper 000 V.D)");
+  pneumatic::ClosedLoopCommandOptions closed;
+  rollout->add_option("--controller", closed.controller,
+                      "closed loop: 'pid' (a PID on every cylinder's position, controllers/position_pid.h) or 'none' "
+                      "(valves at rest)")
+      ->check(CLI::IsMember({"pid", "none"}));
+  rollout->add_option("--controller-config", closed.controller_config_path,
+                      "JSON of the PID's gains: kp, ki, kd (on the error over the half stroke), co_contraction and "
+                      "swing (V), onoff_band; \"cylinders\": {NAME: {...}} per cylinder");
+  rollout->add_option("--reference", closed.reference_path, "log with <cylinder>.ref columns: the targets (default: hold the initial pose)");
+  rollout->add_option("--control-rate", closed.control_rate, "controller ticks per second (commands held between)")
+      ->capture_default_str();
+  rollout->add_option("--seed", closed.seeds, "seed of the sensor noise; several: one run each (repeatable)");
+  rollout->add_option("--noise-pressure", closed.noise_pressure, "pressure sensor noise seen and logged, Pa (std)");
+  rollout->add_option("--noise-position", closed.noise_position, "position sensor noise seen and logged, m or rad (std)");
+  rollout->add_option("--variations", closed.variations_path,
+                      "JSON [{\"name\": ..., \"set\": {\"cyl:key\": value}}]: one run per variation and seed");
+  rollout->add_option("--summary", closed.summary_path,
+                      "JSON summary: steps, real-time factor, tracking errors, pressure ranges, warnings");
+  rollout->add_option("--jobs", closed.jobs, "runs at once, each on its own copy of the model")->check(CLI::Range(1, 256));
 
   pneumatic::GenerateOptions generate_options;
   std::string generate_model, generate_out;
@@ -226,6 +247,21 @@ int main(int argc, char** argv) {
   params->add_flag("--markdown", markdown, "as a Markdown table");
 
   CLI11_PARSE(app, argc, argv);
+  if (*rollout && rollout->count("--controller") > 0) {
+    if (!commands_path.empty() || !sets.empty() || follow_motion) {
+      return Fail("--controller runs closed loop: it does not take --commands, --set or --follow-motion");
+    }
+    if (rollout->count("--duration") == 0) return Fail("--controller needs --duration");
+    closed.model_path = model_path;
+    closed.duration = duration;
+    closed.out_path = out_path;
+    if (closed.seeds.empty()) closed.seeds = {1};
+    return pneumatic::RunClosedLoopCommand(closed);
+  }
+  for (const char* closed_only : {"--controller-config", "--reference", "--control-rate", "--seed", "--noise-pressure",
+                                  "--noise-position", "--variations", "--summary", "--jobs"}) {
+    if (rollout->count(closed_only) > 0) return Fail(std::string(closed_only) + " needs --controller");
+  }
   if (*rollout) {
     bool duration_given = rollout->count("--duration") > 0;
     return RunRollout(model_path, commands_path, out_path, duration_given, duration, period, sets, follow_motion);

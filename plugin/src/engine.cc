@@ -24,6 +24,7 @@
 #include <cstring>
 #include <memory>
 #include <mutex>
+#include <sstream>
 
 #include "cylinder.h"
 #include "pneumatic/pneumatic.h"
@@ -403,6 +404,26 @@ std::optional<double> GetParameter(const mjModel* m, const std::string& cylinder
   std::shared_ptr<const CompiledModel> model = CompiledCylinder(m, cylinder, error ? error : &ignored, &config);
   if (!model) return std::nullopt;
   return ConfigValue(*config, key, error ? error : &ignored);
+}
+
+std::optional<std::string> GetChoice(const mjModel* m, const std::string& cylinder, const std::string& key,
+                                     std::string* error) {
+  std::string ignored;
+  if (!error) error = &ignored;
+  std::optional<double> index = GetParameter(m, cylinder, key, error);
+  if (!index) return std::nullopt;
+  const std::string base = key.rfind("P.", 0) == 0 || key.rfind("N.", 0) == 0 ? key.substr(2) : key;
+  for (const ParameterDoc& doc : Parameters()) {
+    if (doc.key != base) continue;
+    if (!doc.is_choice) break;
+    std::istringstream choices(doc.valid);
+    std::string choice;
+    for (int i = 0; choices >> choice; ++i) {
+      if (i == static_cast<int>(*index)) return choice;
+    }
+  }
+  *error = "cylinder '" + cylinder + "': key '" + key + "' is not a choice";
+  return std::nullopt;
 }
 
 bool SetParameters(mjModel* m, const std::string& cylinder,

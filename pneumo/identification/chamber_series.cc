@@ -20,22 +20,6 @@ std::string Format(double value) {
   return text.str();
 }
 
-// the name of the valve arrangement of cylinder `cyl`, from its choice index
-std::string ValveName(const mjModel* m, const std::string& cyl) {
-  std::string error;
-  std::optional<double> index = GetParameter(m, cyl, "valve", &error);
-  if (!index) return "unknown (" + error + ")";
-  for (const ParameterDoc& doc : Parameters()) {
-    if (doc.key != "valve") continue;
-    std::istringstream choices(doc.valid);
-    std::string choice;
-    for (int i = 0; choices >> choice; ++i) {
-      if (i == static_cast<int>(*index)) return choice;
-    }
-  }
-  return "unknown";
-}
-
 int CommandActuator(const CylinderInfo& c, const std::string& signal) {
   for (const auto& [name, id] : c.command_actuators) {
     if (name == signal) return id;
@@ -131,7 +115,7 @@ std::string ExtractChambers(const mjModel* m, const log::Log& log, std::vector<C
     bool in_log = false;
     for (const log::Column& column : log.columns) in_log = in_log || column.cylinder == c.name;
     if (!in_log) continue;
-    if (std::string valve = ValveName(m, c.name); valve != kPerChamberValve) {
+    if (std::string valve = GetChoice(m, c.name, "valve", nullptr).value_or("?"); valve != kPerChamberValve) {
       return "cylinder '" + c.name + "' has valve=" + valve +
              ": identification supports only valve=proportional_per_chamber (paper 000's set-up, one valve "
              "per chamber, columns uP and uN); a 5/3 valve's one command would have to be mapped to each "

@@ -53,6 +53,11 @@ bool IsAttached(const mjModel* m);
 std::optional<double> GetParameter(const mjModel* m, const std::string& cylinder, const std::string& key,
                                    std::string* error);
 
+// A choice parameter as its text ("valve" -> "proportional_per_chamber"); nullopt and *error as
+// GetParameter, or if the key is not a choice.
+std::optional<std::string> GetChoice(const mjModel* m, const std::string& cylinder, const std::string& key,
+                                     std::string* error);
+
 // Sets a parameter, checked exactly as the MJCF is (range, unit, the keys that
 // apply, relations such as p_supply > p_exhaust); a chamber key without prefix
 // sets both chambers. On success the model's stored parameters change and the

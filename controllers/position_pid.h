@@ -1,0 +1,65 @@
+// A PID on each cylinder's position that drives whatever valves the cylinder has: the default
+// closed-loop controller of `pneumo rollout --controller pid`.
+//
+// Per cylinder, with the error normalised by the half stroke (so one set of gains suits a 10 mm
+// finger and a 1 rad hip), e = (ref - x) / (l/2), the PID of pid.h gives a demand
+//   d = kp e + ki sum(e) T - kd (e_x rate),  d in [-1, 1]  (derivative on the measurement),
+// turned into the valve commands of the cylinder's arrangement (the project's own mapping):
+//   one proportional valve per chamber (paper 000): uP = c0 + c + s d, uN = c0 + c - s d, with
+//     c0 = (U_c + U_r)/2 the valve centre, c the co-contraction offset and s the command swing,
+//     clipped to each actuator's ctrlrange (paper 000 used 3..7 V: c0 = 5, s = 2);
+//   one 5/3 proportional valve (paper 001): u = u_max d;
+//   four on/off valves (paper 002): P to supply and N to exhaust (u1 = u4 = 1) when d > band,
+//     the reverse (u2 = u3 = 1) when d < -band, all closed in between;
+//   on/off valves on PWM (paper 003): duty = d.
+// The defaults kp = 1.5, ki = 1.5 1/s, kd = 0.0375 s with s = 2 V are, on rig C (l/2 = 50 mm),
+// the gains `pneumo generate` uses there: s kp / (l/2) = 60 V/m, 60 V/(m s), 1.5 V s/m.
+#ifndef PNEUMATIC_CONTROLLERS_POSITION_PID_H_
+#define PNEUMATIC_CONTROLLERS_POSITION_PID_H_
+
+#include <string>
+#include <vector>
+
+#include "controller.h"
+#include "pid.h"
+
+namespace pneumatic {
+
+// How one cylinder's valves are commanded (from the model: pneumatic::Cylinders and GetParameter).
+struct ValveDrive {
+  enum class Kind { kPerChamber, kFiveThree, kOnOff, kDuty } kind = Kind::kPerChamber;
+  double half_stroke = 0;           // l/2, m or rad
+  double centre = 5;                // V: per chamber, (U_c + U_r)/2
+  double u_max = 5;                 // V: 5/3 valve saturation
+  double command_min = 0, command_max = 10;  // V: per chamber, the actuators' ctrlrange
+};
+
+struct PositionPidGains {
+  double kp = 1.5;             // demand per unit of normalised error
+  double ki = 1.5;             // 1/s
+  double kd = 0.0375;          // s
+  double co_contraction = 0.5; // V above the valve centre on both chambers (per-chamber valves): stiffness
+  double swing = 2;            // V of command per unit of demand (per-chamber valves)
+  double onoff_band = 0.05;    // demand below which on/off valves stay closed
+};
+
+class PositionPid : public Controller {
+ public:
+  PositionPid(std::vector<ValveDrive> drives, std::vector<PositionPidGains> gains, double period);
+
+  double Period() const override { return period_; }
+  void Update(double time, const std::vector<CylinderMeasurement>& measured,
+              std::vector<CylinderCommands>* commands) override;
+  std::vector<double> State() const override;
+  bool SetState(const std::vector<double>& state) override;
+
+ private:
+  std::vector<ValveDrive> drives_;
+  std::vector<PositionPidGains> gains_;
+  std::vector<Pid> pids_;
+  double period_;
+};
+
+}  // namespace pneumatic
+
+#endif  // PNEUMATIC_CONTROLLERS_POSITION_PID_H_

@@ -1,0 +1,244 @@
+#include "closed_loop.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <memory>
+
+#include "pneumatic/pneumatic.h"
+#include "random_stream.h"
+#include "rollout.h"
+
+namespace pneumatic {
+namespace {
+
+enum Purpose : std::uint64_t { kSensorNoise = 11 };
+
+// how the controller reaches each cylinder's valves, read from the model
+std::string DriveOf(const mjModel* m, const CylinderInfo& c, ValveDrive* drive) {
+  std::string error;
+  std::optional<std::string> valve = GetChoice(m, c.name, "valve", &error);
+  std::optional<double> stroke = GetParameter(m, c.name, "stroke", &error);
+  if (!valve || !stroke) return error;
+  drive->half_stroke = *stroke / 2;
+  if (*valve == "proportional_per_chamber") {
+    drive->kind = ValveDrive::Kind::kPerChamber;
+    std::optional<double> u_c = GetParameter(m, c.name, "P.u_supply_seal", &error);
+    std::optional<double> u_r = GetParameter(m, c.name, "P.u_exhaust_seal", &error);
+    if (!u_c || !u_r) return error;
+    drive->centre = (*u_c + *u_r) / 2;  // paper 000 Table I: c1 = (U_c + U_r) / 2, the sealed valve
+    drive->command_min = drive->centre - 5, drive->command_max = drive->centre + 5;
+    for (const auto& [signal, id] : c.command_actuators) {
+      if (signal == "uP" && m->actuator_ctrllimited[id]) {
+        drive->command_min = m->actuator_ctrlrange[2 * id], drive->command_max = m->actuator_ctrlrange[2 * id + 1];
+      }
+    }
+  } else if (*valve == "proportional_5_3") {
+    drive->kind = ValveDrive::Kind::kFiveThree;
+    std::optional<double> u_max = GetParameter(m, c.name, "u_max", &error);
+    if (!u_max) return error;
+    drive->u_max = *u_max;
+  } else {
+    std::optional<std::string> input = GetChoice(m, c.name, "input", &error);
+    if (!input) return error;
+    drive->kind = *input == "pwm" ? ValveDrive::Kind::kDuty : ValveDrive::Kind::kOnOff;
+  }
+  return "";
+}
+
+// commands that leave every valve at rest: closed or centred
+CylinderCommands RestCommands(const ValveDrive& drive) {
+  switch (drive.kind) {
+    case ValveDrive::Kind::kPerChamber: return {{"uP", drive.centre}, {"uN", drive.centre}};
+    case ValveDrive::Kind::kFiveThree: return {{"u", 0}};
+    case ValveDrive::Kind::kOnOff: return {{"u1", 0}, {"u2", 0}, {"u3", 0}, {"u4", 0}};
+    case ValveDrive::Kind::kDuty: return {{"duty", 0}};
+  }
+  return {};
+}
+
+// the reference of one cylinder at time t: linear between the log's rows
+class Reference {
+ public:
+  Reference(const log::Log* log, int column) : log_(log), column_(column) {}
+  bool given() const { return column_ >= 0; }
+  double At(double t) const {
+    const std::vector<double>& time = log_->time;
+    const std::vector<double>& ref = log_->values[static_cast<size_t>(column_)];
+    if (t <= time.front()) return ref.front();
+    if (t >= time.back()) return ref.back();
+    size_t i = static_cast<size_t>(std::upper_bound(time.begin(), time.end(), t) - time.begin()) - 1;
+    double s = (t - time[i]) / (time[i + 1] - time[i]);
+    return ref[i] + s * (ref[i + 1] - ref[i]);
+  }
+
+ private:
+  const log::Log* log_;
+  int column_;
+};
+
+struct Channel {
+  CylinderInfo info;
+  ValveDrive drive;
+  Reference reference{nullptr, -1};
+  double hold = 0;  // the initial position, the target without a reference
+  Stream noise;
+  std::vector<std::pair<int, int>> command_columns;  // (actuator, output column) by the commands' order
+};
+
+}  // namespace
+
+ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& options) {
+  ClosedLoopResult result;
+  auto fail = [&](const std::string& message) {
+    result.error = message;
+    result.log.reset();
+    return result;
+  };
+  std::vector<CylinderInfo> cylinders;
+  if (std::string problem = AttachedCylinders(m, &cylinders); !problem.empty()) return fail(problem);
+  if (!(options.duration > 0) || !std::isfinite(options.duration)) return fail("the duration must be positive");
+  if (!(options.control_rate > 0) || !std::isfinite(options.control_rate)) return fail("the control rate must be positive");
+  if (options.controller != "pid" && options.controller != "none") {
+    return fail("unknown controller '" + options.controller + "' (choices: pid none)");
+  }
+  if (!(options.noise_pressure >= 0) || !(options.noise_position >= 0)) return fail("sensor noise must be >= 0");
+  const double period = 1 / options.control_rate;
+  const long steps_per_tick = std::lround(period / m->opt.timestep);
+  if (steps_per_tick < 1 || std::fabs(static_cast<double>(steps_per_tick) * m->opt.timestep - period) > 1e-9 * period) {
+    return fail("the control period " + std::to_string(period) + " s is not a whole number of model timesteps (" +
+                std::to_string(m->opt.timestep) + " s)");
+  }
+  const long ticks = std::lround(std::ceil(options.duration * options.control_rate - 1e-9));
+  for (const auto& [name, gains] : options.cylinder_gains) {
+    bool known = false;
+    for (const CylinderInfo& c : cylinders) known |= c.name == name;
+    if (!known) return fail("controller gains for '" + name + "', which is not a cylinder of the model");
+  }
+
+  std::unique_ptr<mjData, void (*)(mjData*)> d(mj_makeData(m), mj_deleteData);
+  if (!d) return fail("mj_makeData failed");
+  if (m->nkey > 0) mj_resetDataKeyframe(m, d.get(), 0);
+  mj_forward(m, d.get());
+
+  // the channels and the log's columns: every cylinder's commands, then its measured signals
+  log::Log out;
+  out.comments.push_back("closed-loop rollout: controller " + options.controller + " at " +
+                         std::to_string(options.control_rate) + " Hz, commands held between ticks");
+  std::vector<Channel> channels;
+  std::vector<ValveDrive> drives;
+  std::vector<PositionPidGains> gains;
+  for (size_t i = 0; i < cylinders.size(); ++i) {
+    Channel ch{cylinders[i], {}, {nullptr, -1}, 0, Stream(options.seed, i, kSensorNoise), {}};
+    if (std::string e = DriveOf(m, ch.info, &ch.drive); !e.empty()) return fail(e);
+    if (options.reference) ch.reference = Reference(options.reference, options.reference->FindColumn(ch.info.name, "ref"));
+    ch.hold = PistonPosition(m, d.get(), ch.info);
+    for (const auto& [signal, value] : RestCommands(ch.drive)) {
+      int actuator = -1;
+      for (const auto& [s, id] : ch.info.command_actuators) actuator = s == signal ? id : actuator;
+      if (actuator < 0) return fail("cylinder '" + ch.info.name + "' has no actuator '" + ch.info.name + "." + signal + "'");
+      ch.command_columns.emplace_back(actuator, static_cast<int>(out.columns.size()));
+      out.columns.push_back({ch.info.name, signal});
+    }
+    drives.push_back(ch.drive);
+    auto it = options.cylinder_gains.find(ch.info.name);
+    gains.push_back(it != options.cylinder_gains.end() ? it->second : options.gains);
+    channels.push_back(std::move(ch));
+  }
+  const size_t first_measured = out.columns.size();
+  for (const Channel& ch : channels) {
+    for (const char* signal : {"p_P", "p_N", "x", "v", "p_S", "ref"}) out.columns.push_back({ch.info.name, signal});
+  }
+  out.values.assign(out.columns.size(), {});
+  for (auto& column : out.values) column.reserve(static_cast<size_t>(ticks));
+  PositionPid pid(drives, gains, period);
+
+  ClosedLoopSummary& summary = result.summary;
+  for (const Channel& ch : channels) {
+    CylinderSummary s;
+    s.name = ch.info.name;
+    s.p_min[0] = s.p_min[1] = 1e300, s.p_max[0] = s.p_max[1] = -1e300;
+    summary.cylinders.push_back(s);
+  }
+  std::vector<double> squared_error(channels.size(), 0);
+  std::vector<CylinderMeasurement> measured(channels.size());
+  std::vector<CylinderCommands> commands(channels.size());
+  const auto start = std::chrono::steady_clock::now();
+  for (long k = 0; k < ticks; ++k) {
+    const double t = d->time;
+    for (size_t i = 0; i < channels.size(); ++i) {
+      Channel& ch = channels[i];
+      CylinderMeasurement& y = measured[i];
+      y.p_P = ChamberPressure(m, d.get(), ch.info, Chamber::kP) + options.noise_pressure * ch.noise.Gaussian();
+      y.p_N = ChamberPressure(m, d.get(), ch.info, Chamber::kN) + options.noise_pressure * ch.noise.Gaussian();
+      const double x_noise = options.noise_position * ch.noise.Gaussian();
+      y.x = PistonPosition(m, d.get(), ch.info) + x_noise;
+      y.reference = ch.reference.given() ? ch.reference.At(t) : ch.hold;
+      // the summary judges the true state, not the noisy sensors
+      const double true_x = y.x - x_noise;
+      const double error = std::fabs(y.reference - true_x);
+      squared_error[i] += error * error;
+      CylinderSummary& s = summary.cylinders[i];
+      s.max_tracking_error = std::max(s.max_tracking_error, error);
+      for (int chamber = 0; chamber < 2; ++chamber) {
+        const double p = ChamberPressure(m, d.get(), ch.info, chamber == 0 ? Chamber::kP : Chamber::kN);
+        s.p_min[chamber] = std::min(s.p_min[chamber], p), s.p_max[chamber] = std::max(s.p_max[chamber], p);
+        s.within_supply_range &= p >= ch.info.p_exhaust - 1 && p <= ch.info.p_supply + 1;
+      }
+    }
+    if (options.controller == "pid") {
+      pid.Update(t, measured, &commands);
+    } else {
+      for (size_t i = 0; i < channels.size(); ++i) commands[i] = RestCommands(channels[i].drive);
+    }
+
+    // the row: this tick's commands and the samples taken before they act
+    out.time.push_back(t);
+    size_t column = first_measured;
+    for (size_t i = 0; i < channels.size(); ++i) {
+      const Channel& ch = channels[i];
+      for (size_t j = 0; j < ch.command_columns.size(); ++j) {
+        const auto [actuator, out_column] = ch.command_columns[j];
+        d->ctrl[actuator] = commands[i][j].second;
+        out.values[static_cast<size_t>(out_column)].push_back(commands[i][j].second);
+      }
+      const CylinderMeasurement& y = measured[i];
+      for (double value : {y.p_P, y.p_N, y.x, PistonVelocity(m, d.get(), ch.info), ch.info.p_supply, y.reference}) {
+        out.values[column++].push_back(value);
+      }
+    }
+
+    for (long step = 0; step < steps_per_tick; ++step) mj_step(m, d.get());
+    summary.steps += steps_per_tick;
+    for (int w : {mjWARN_BADQACC, mjWARN_BADQVEL, mjWARN_BADQPOS, mjWARN_BADCTRL}) {
+      if (d->warning[w].number > 0) {
+        return fail("the simulation diverged near t = " + std::to_string(d->time) + " s (MuJoCo warning " +
+                    std::to_string(w) + ")");
+      }
+    }
+    if (options.progress && (k % 100 == 0 || k + 1 == ticks)) {
+      options.progress(static_cast<double>(k + 1) / static_cast<double>(ticks));
+    }
+  }
+
+  summary.simulated_s = static_cast<double>(summary.steps) * m->opt.timestep;
+  summary.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  summary.real_time_factor = summary.wall_s > 0 ? summary.simulated_s / summary.wall_s : 0;
+  for (size_t i = 0; i < channels.size(); ++i) {
+    CylinderSummary& s = summary.cylinders[i];
+    s.rms_tracking_error = std::sqrt(squared_error[i] / static_cast<double>(ticks));
+    if (!s.within_supply_range) {
+      summary.warnings.push_back("cylinder '" + s.name + "': a chamber pressure left [p_exhaust, p_supply]");
+    }
+  }
+  for (int w = 0; w < mjNWARNING; ++w) {
+    if (d->warning[w].number > 0) {
+      summary.warnings.push_back("MuJoCo warning " + std::to_string(w) + " raised " +
+                                 std::to_string(d->warning[w].number) + " times");
+    }
+  }
+  result.log = std::move(out);
+  return result;
+}
+
+}  // namespace pneumatic

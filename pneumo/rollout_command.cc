@@ -1,0 +1,265 @@
+#include "rollout_command.h"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <cstdio>
+#include <fstream>
+#include <memory>
+#include <mutex>
+#include <sstream>
+#include <thread>
+
+#include <mujoco/mujoco.h>
+#include <nlohmann/json.hpp>
+
+#include "closed_loop.h"
+#include "log_csv.h"
+#include "output_file.h"
+#include "pneumatic/pneumatic.h"
+
+namespace pneumatic {
+namespace {
+
+using nlohmann::json;
+
+int Fail(const std::string& message) {
+  std::fprintf(stderr, "pneumo rollout: %s\n", message.c_str());
+  return 1;
+}
+
+std::string ReadJson(const std::string& path, json* out) {
+  std::ifstream in(path);
+  if (!in) return path + ": cannot read";
+  try {
+    *out = json::parse(in);
+  } catch (const json::parse_error& e) {
+    return path + ": " + e.what();
+  }
+  return "";
+}
+
+// gains from a JSON object; unknown keys and values that are not finite numbers are refused
+std::string ReadGains(const json& object, const std::string& where, PositionPidGains* gains) {
+  static const std::vector<std::pair<const char*, double PositionPidGains::*>> kKeys = {
+      {"kp", &PositionPidGains::kp},
+      {"ki", &PositionPidGains::ki},
+      {"kd", &PositionPidGains::kd},
+      {"co_contraction", &PositionPidGains::co_contraction},
+      {"swing", &PositionPidGains::swing},
+      {"onoff_band", &PositionPidGains::onoff_band}};
+  for (const auto& [key, value] : object.items()) {
+    if (key == "cylinders") continue;
+    auto it = std::find_if(kKeys.begin(), kKeys.end(), [&](const auto& k) { return key == k.first; });
+    if (it == kKeys.end()) return where + ": unknown key '" + key + "' (kp, ki, kd, co_contraction, swing, onoff_band, cylinders)";
+    if (!value.is_number() || !std::isfinite(value.get<double>()) || value.get<double>() < 0) {
+      return where + ": key '" + key + "' must be a number >= 0";
+    }
+    gains->*(it->second) = value.get<double>();
+  }
+  return "";
+}
+
+// {"kp": 1.5, ..., "cylinders": {"knee": {"kp": 3}}}: defaults for every cylinder, then per cylinder
+std::string ReadControllerConfig(const std::string& path, ClosedLoopOptions* options) {
+  json config;
+  if (std::string e = ReadJson(path, &config); !e.empty()) return e;
+  if (!config.is_object()) return path + ": expected a JSON object";
+  if (std::string e = ReadGains(config, path, &options->gains); !e.empty()) return e;
+  if (config.contains("cylinders")) {
+    if (!config["cylinders"].is_object()) return path + ": 'cylinders' must be an object of cylinder names";
+    for (const auto& [name, object] : config["cylinders"].items()) {
+      PositionPidGains gains = options->gains;
+      if (std::string e = ReadGains(object, path + ": cylinders." + name, &gains); !e.empty()) return e;
+      options->cylinder_gains[name] = gains;
+    }
+  }
+  return "";
+}
+
+struct Variation {
+  std::string name;                                          // "" for the model as it is
+  std::vector<std::pair<std::string, double>> parameters;    // "cyl:key" -> value
+};
+
+std::string ReadVariations(const std::string& path, std::vector<Variation>* out) {
+  json list;
+  if (std::string e = ReadJson(path, &list); !e.empty()) return e;
+  if (!list.is_array() || list.empty()) return path + ": expected a non-empty array of {\"name\", \"set\"}";
+  for (const json& item : list) {
+    if (!item.is_object() || !item.contains("name") || !item["name"].is_string() || !item.contains("set") ||
+        !item["set"].is_object()) {
+      return path + ": every variation needs \"name\" (text) and \"set\" ({\"cyl:key\": number})";
+    }
+    Variation v{item["name"].get<std::string>(), {}};
+    for (const auto& [key, value] : item["set"].items()) {
+      if (!value.is_number()) return path + ": variation '" + v.name + "': '" + key + "' must be a number";
+      v.parameters.emplace_back(key, value.get<double>());
+    }
+    out->push_back(v);
+  }
+  return "";
+}
+
+json SummaryJson(const ClosedLoopSummary& s, const std::string& run) {
+  json cylinders = json::object();
+  for (const CylinderSummary& c : s.cylinders) {
+    cylinders[c.name] = {{"rms_tracking_error", c.rms_tracking_error},
+                         {"max_tracking_error", c.max_tracking_error},
+                         {"p_P_range_pa", {c.p_min[0], c.p_max[0]}},
+                         {"p_N_range_pa", {c.p_min[1], c.p_max[1]}},
+                         {"within_supply_range", c.within_supply_range}};
+  }
+  return {{"run", run},
+          {"steps", s.steps},
+          {"simulated_s", s.simulated_s},
+          {"wall_s", s.wall_s},
+          {"real_time_factor", s.real_time_factor},
+          {"cylinders", cylinders},
+          {"warnings", s.warnings}};
+}
+
+std::string Substitute(std::string pattern, const std::string& run) {
+  size_t at = pattern.find("{run}");
+  if (at != std::string::npos) pattern.replace(at, 5, run);
+  return pattern;
+}
+
+// one run: a seed, possibly with a variation of the model's parameters
+struct Run {
+  std::string name;
+  std::uint64_t seed = 1;
+  const Variation* variation = nullptr;
+};
+
+// a progress bar on stderr for one long run, redrawn at most every 0.2 s
+class ProgressBar {
+ public:
+  explicit ProgressBar(double duration) : duration_(duration), terminal_(isatty(STDERR_FILENO)) {}
+  void operator()(double fraction) {
+    auto now = std::chrono::steady_clock::now();
+    if (fraction < 1 && now - last_ < std::chrono::milliseconds(200)) return;
+    last_ = now;
+    const int width = 30, filled = static_cast<int>(fraction * width);
+    std::fprintf(stderr, "%s[%.*s%*s] %3.0f %% of %g s%s", terminal_ ? "\r" : "", filled,
+                 "==============================", width - filled, "", 100 * fraction, duration_,
+                 terminal_ && fraction < 1 ? "" : "\n");
+  }
+
+ private:
+  double duration_;
+  bool terminal_;
+  std::chrono::steady_clock::time_point last_{};
+};
+
+}  // namespace
+
+int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
+  char error_text[1000] = "";
+  std::unique_ptr<mjModel, void (*)(mjModel*)> model(
+      mj_loadXML(options.model_path.c_str(), nullptr, error_text, sizeof(error_text)), mj_deleteModel);
+  if (!model) return Fail(options.model_path + ": " + error_text);
+  std::string error;
+  if (!Attach(model.get(), &error)) return Fail(options.model_path + ": " + error);
+
+  ClosedLoopOptions base;
+  base.controller = options.controller;
+  base.duration = options.duration;
+  base.control_rate = options.control_rate;
+  base.noise_pressure = options.noise_pressure;
+  base.noise_position = options.noise_position;
+  if (!options.controller_config_path.empty()) {
+    if (std::string e = ReadControllerConfig(options.controller_config_path, &base); !e.empty()) return Fail(e);
+  }
+  std::optional<log::Log> reference;
+  if (!options.reference_path.empty()) {
+    log::ReadOptions read;
+    for (const CylinderInfo& c : Cylinders(model.get())) read.cylinders.insert(c.name);
+    read.uniform_time = false;
+    log::ReadResult r = log::ReadLog(options.reference_path, read);
+    if (!r.log) return Fail(r.error);
+    reference = std::move(r.log);
+    base.reference = &*reference;
+  }
+  std::vector<Variation> variations;
+  if (!options.variations_path.empty()) {
+    if (std::string e = ReadVariations(options.variations_path, &variations); !e.empty()) return Fail(e);
+  }
+
+  std::vector<Run> runs;
+  for (std::uint64_t seed : options.seeds) {
+    if (variations.empty()) runs.push_back({"seed" + std::to_string(seed), seed, nullptr});
+    for (const Variation& v : variations) runs.push_back({v.name + "-seed" + std::to_string(seed), seed, &v});
+  }
+  if (runs.size() > 1 && (options.out_path.find("{run}") == std::string::npos ||
+                          (!options.summary_path.empty() && options.summary_path.find("{run}") == std::string::npos))) {
+    return Fail(std::to_string(runs.size()) + " runs: --out and --summary must contain {run}, e.g. --out 'runs/{run}.csv'");
+  }
+
+  // each run on its own copy of the model; workers take runs in order, outputs are per run
+  std::atomic<size_t> next{0}, done{0};
+  std::mutex report;
+  std::vector<std::string> errors(runs.size());
+  const bool single = runs.size() == 1;
+  ProgressBar bar(options.duration);
+  auto worker = [&]() {
+    for (size_t i = next++; i < runs.size(); i = next++) {
+      const Run& run = runs[i];
+      std::unique_ptr<mjModel, void (*)(mjModel*)> copy(mj_copyModel(nullptr, model.get()), mj_deleteModel);
+      std::string e;
+      if (run.variation) {
+        for (const auto& [name, value] : run.variation->parameters) {
+          const size_t colon = name.find(':');
+          if (colon == std::string::npos) {
+            e = "variation '" + run.variation->name + "': '" + name + "' is not <cylinder>:<key>";
+          } else if (!SetParameter(copy.get(), name.substr(0, colon), name.substr(colon + 1), value, &e)) {
+            e = "variation '" + run.variation->name + "': " + e;
+          }
+          if (!e.empty()) break;
+        }
+      }
+      if (e.empty()) {
+        ClosedLoopOptions o = base;
+        o.seed = run.seed;
+        if (single) o.progress = [&](double f) { bar(f); };
+        ClosedLoopResult result = RunClosedLoop(copy.get(), o);
+        if (!result.log) {
+          e = result.error;
+        } else {
+          result.log->comments.insert(result.log->comments.begin(), "model: " + options.model_path);
+          result.log->comments.push_back("run " + run.name);
+          e = log::WriteLog(Substitute(options.out_path, run.name), *result.log);
+          if (e.empty() && !options.summary_path.empty()) {
+            e = WriteOutput(Substitute(options.summary_path, run.name), SummaryJson(result.summary, run.name).dump(2) + "\n",
+                            "a JSON file");
+          }
+          if (e.empty()) {
+            std::lock_guard<std::mutex> lock(report);
+            std::fprintf(stderr, "pneumo rollout: %s: %.2f s simulated, real-time factor %.2f%s%s\n", run.name.c_str(),
+                         result.summary.simulated_s, result.summary.real_time_factor,
+                         result.summary.warnings.empty() ? "" : "; warning: ",
+                         result.summary.warnings.empty() ? "" : result.summary.warnings.front().c_str());
+          }
+        }
+      }
+      errors[i] = e.empty() ? "" : run.name + ": " + e;
+      if (!single) {
+        std::lock_guard<std::mutex> lock(report);
+        std::fprintf(stderr, "pneumo rollout: %zu of %zu runs done\n", ++done, runs.size());
+      }
+    }
+  };
+  const int jobs = std::max(1, std::min<int>(options.jobs, static_cast<int>(runs.size())));
+  std::vector<std::thread> threads;
+  for (int j = 1; j < jobs; ++j) threads.emplace_back(worker);
+  worker();
+  for (std::thread& t : threads) t.join();
+  Detach(model.get());
+  int status = 0;
+  for (const std::string& e : errors) {
+    if (!e.empty()) status = Fail(e);
+  }
+  return status;
+}
+
+}  // namespace pneumatic
