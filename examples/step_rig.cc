@@ -1,4 +1,5 @@
-// Fill chamber P of rig A from its supply and watch the piston move.
+// Quick start: fill chamber P of rig A from its supply and watch the pressures, the piston and
+// the force.
 //
 // Chamber P is connected to supply (U1) and chamber N to exhaust (U4): paper
 // 002's mode M6. Each step the extension advances both chamber pressures
@@ -35,14 +36,16 @@ int main(int argc, char** argv) {
   for (const auto& [signal, id] : cyl.command_actuators) {
     d->ctrl[id] = (signal == "u1" || signal == "u4") ? 1 : 0;
   }
-  std::printf("%8s %12s %12s %10s\n", "t (s)", "p_P (Pa)", "p_N (Pa)", "x (mm)");
+  std::printf("%8s %12s %12s %10s %9s\n", "t (s)", "p_P (Pa)", "p_N (Pa)", "x (mm)", "F (N)");
   for (int i = 0; d->time < 0.1; ++i) {
     if (i % 40 == 0) {
       mj_forward(m, d);
-      std::printf("%8.4f %12.1f %12.1f %10.3f\n", d->time,
+      // the force on the piston: the two chamber actuators' forces, A_P (p_P - p_atm) - A_N (p_N - p_atm)
+      double force = d->actuator_force[cyl.chamber_actuator[0]] + d->actuator_force[cyl.chamber_actuator[1]];
+      std::printf("%8.4f %12.1f %12.1f %10.3f %9.2f\n", d->time,
                   pneumatic::ChamberPressure(m, d, cyl, pneumatic::Chamber::kP),
                   pneumatic::ChamberPressure(m, d, cyl, pneumatic::Chamber::kN),
-                  1e3 * pneumatic::PistonPosition(m, d, cyl));
+                  1e3 * pneumatic::PistonPosition(m, d, cyl), force);
     }
     mj_step(m, d);
   }
