@@ -86,6 +86,21 @@ struct Channel {
   std::vector<std::pair<int, int>> command_columns;  // (actuator, output column) by the commands' order
 };
 
+// the controller's commands must be each cylinder's command signals, in the order of its rest commands
+std::string CheckCommands(const std::vector<Channel>& channels, const std::vector<CylinderCommands>& commands) {
+  if (commands.size() != channels.size()) return "the controller wrote commands for a different number of cylinders";
+  for (size_t i = 0; i < channels.size(); ++i) {
+    const CylinderCommands rest = RestCommands(channels[i].drive);
+    bool same = commands[i].size() == rest.size();
+    for (size_t j = 0; same && j < rest.size(); ++j) same = commands[i][j].first == rest[j].first;
+    if (!same) return "the controller's commands for cylinder '" + channels[i].info.name + "' are not its valve's signals";
+    for (const auto& [signal, value] : commands[i]) {
+      if (!std::isfinite(value)) return "the controller wrote a non-finite " + channels[i].info.name + "." + signal;
+    }
+  }
+  return "";
+}
+
 }  // namespace
 
 ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& options) {
@@ -99,7 +114,8 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
   if (std::string problem = AttachedCylinders(m, &cylinders); !problem.empty()) return fail(problem);
   if (!(options.duration > 0) || !std::isfinite(options.duration)) return fail("the duration must be positive");
   if (!(options.control_rate > 0) || !std::isfinite(options.control_rate)) return fail("the control rate must be positive");
-  if (options.controller != "pid" && options.controller != "none") {
+  if (options.controller != "pid" && options.controller != "none" &&
+      !(options.controller == "custom" && options.make_controller)) {
     return fail("unknown controller '" + options.controller + "' (choices: pid none)");
   }
   if (!(options.noise_pressure >= 0) || !(options.noise_position >= 0)) return fail("sensor noise must be >= 0");
@@ -151,7 +167,17 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
   }
   out.values.assign(out.columns.size(), {});
   for (auto& column : out.values) column.reserve(static_cast<size_t>(ticks));
-  PositionPid pid(drives, gains, period);
+  std::unique_ptr<Controller> controller;
+  if (options.controller == "pid") {
+    controller = std::make_unique<PositionPid>(drives, gains, period);
+  } else if (options.controller == "custom") {
+    std::string why;
+    controller = options.make_controller(drives, period, &why);
+    if (!controller) return fail("the controller: " + why);
+    if (std::fabs(controller->Period() - period) > 1e-12 * period) {
+      return fail("the controller's period differs from the control rate's");
+    }
+  }
 
   ClosedLoopSummary& summary = result.summary;
   for (const Channel& ch : channels) {
@@ -186,8 +212,9 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
         s.within_supply_range &= p >= ch.info.p_exhaust - 1 && p <= ch.info.p_supply + 1;
       }
     }
-    if (options.controller == "pid") {
-      pid.Update(t, measured, &commands);
+    if (controller) {
+      controller->Update(t, measured, &commands);
+      if (std::string e = CheckCommands(channels, commands); !e.empty()) return fail(e);
     } else {
       for (size_t i = 0; i < channels.size(); ++i) commands[i] = RestCommands(channels[i].drive);
     }

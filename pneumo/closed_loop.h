@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -21,6 +22,7 @@
 #include <mujoco/mujoco.h>
 
 #include "log_csv.h"
+#include "controller.h"
 #include "position_pid.h"
 
 namespace pneumatic {
@@ -29,8 +31,12 @@ struct ClosedLoopOptions {
   double duration = 0;        // s, > 0
   double control_rate = 100;  // Hz: paper 000's loop
   // "pid": PositionPid on every cylinder; "none": every valve held at rest (per-chamber valves at
-  // their centre, 5/3 at 0, on/off closed): the passive model
+  // their centre, 5/3 at 0, on/off closed): the passive model; "custom": make_controller's
   std::string controller = "pid";
+  // with controller "custom": builds the run's controller from the cylinders' valve drives (in
+  // the order of pneumatic::Cylinders) and the control period; null and *error on failure
+  std::function<std::unique_ptr<Controller>(const std::vector<ValveDrive>&, double period, std::string* error)>
+      make_controller;
   PositionPidGains gains;                                  // every cylinder ...
   std::map<std::string, PositionPidGains> cylinder_gains;  // ... unless given here by name
   // targets "<cyl>.ref" (m or rad), linear between the rows; a cylinder without a column (or

@@ -114,6 +114,38 @@ TEST(ClosedLoop, BadOptionsAreNamed) {
   EXPECT_THAT(RunClosedLoop(model.m(), options).error, HasSubstr("'knee', which is not a cylinder"));
 }
 
+// a controller of one's own plugs in through the factory; commands that are not the valve's are refused
+class WrongSignals : public Controller {
+ public:
+  double Period() const override { return 0.01; }
+  void Update(double, const std::vector<CylinderMeasurement>& measured, std::vector<CylinderCommands>* commands) override {
+    commands->assign(measured.size(), {{"u", 1.0}});
+  }
+  std::vector<double> State() const override { return {}; }
+  bool SetState(const std::vector<double>& state) override { return state.empty(); }
+};
+
+TEST(ClosedLoop, CustomControllersPlugInAndMustWriteTheValvesSignals) {
+  AttachedModel model;
+  ASSERT_TRUE(model.Load(ShippedModel("rig_per_chamber.xml"), true)) << model.error();
+  ClosedLoopOptions options;
+  options.duration = 0.5;
+  options.controller = "custom";
+  options.make_controller = [](const std::vector<ValveDrive>& drives, double period, std::string*) {
+    return std::unique_ptr<Controller>(new PositionPid(drives, std::vector<PositionPidGains>(drives.size()), period));
+  };
+  ClosedLoopResult custom = RunClosedLoop(model.m(), options);
+  options.controller = "pid";
+  ClosedLoopResult pid = RunClosedLoop(model.m(), options);
+  ASSERT_TRUE(custom.log && pid.log) << custom.error << pid.error;
+  for (size_t c = 0; c < pid.log->values.size(); ++c) EXPECT_EQ(custom.log->values[c], pid.log->values[c]);
+  options.controller = "custom";
+  options.make_controller = [](const std::vector<ValveDrive>&, double, std::string*) {
+    return std::unique_ptr<Controller>(new WrongSignals);
+  };
+  EXPECT_THAT(RunClosedLoop(model.m(), options).error, HasSubstr("are not its valve's signals"));
+}
+
 std::string Quote(const std::string& s) { return "'" + s + "'"; }
 
 int Pneumo(const std::string& args, std::string* err) {
