@@ -69,7 +69,12 @@ std::optional<log::Log> ReadLogFor(const mjModel* m, const std::string& path, st
   log::ReadOptions read;
   for (const CylinderInfo& c : Cylinders(m)) read.cylinders.insert(c.name);
   log::ReadResult r = log::ReadLog(path, read);
-  if (!r.log) *error = r.error;
+  if (!r.log) {
+    *error = r.error;
+  } else if (std::string problem = CheckMeasurements(m, *r.log); !problem.empty()) {
+    *error = problem;
+    return std::nullopt;
+  }
   return r.log;
 }
 

@@ -265,6 +265,8 @@ ReadResult Parse(std::istream& in, const std::string& name, const ReadOptions& o
                       Format(median) + " s, expected uniformly spaced rows");
     }
   }
+  log.source = name;
+  log.row_lines = std::move(row_lines);
   return {std::move(log), ""};
 }
 
@@ -384,6 +386,14 @@ int Log::FindColumn(const std::string& cylinder, const std::string& signal) cons
     }
   }
   return -1;
+}
+
+std::string Log::Where(std::size_t row, std::size_t column) const {
+  if (row < row_lines.size() && column < columns.size()) {
+    // the file's columns count time as column 1
+    return source + ":" + std::to_string(row_lines[row]) + ":" + std::to_string(column + 2);
+  }
+  return "row " + std::to_string(row) + ", column " + (column < columns.size() ? columns[column].name() : "?");
 }
 
 double Log::Period() const {

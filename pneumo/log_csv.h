@@ -66,6 +66,15 @@ struct Log {
   // values[column][row], with column indexing `columns` and row indexing `time`.
   std::vector<std::vector<double>> values;
 
+  // Where the log was read from: the name given to the reader, and the 1-based file line of each
+  // row. Empty for a log built in memory.
+  std::string source;
+  std::vector<std::size_t> row_lines;
+
+  // "FILE:LINE:COLUMN" of row `row` (from 0) and data column `column` (index into `columns`), as
+  // the reader's messages name a place; "row R, column NAME" for a log built in memory.
+  std::string Where(std::size_t row, std::size_t column) const;
+
   // Returns the index of column `cylinder`.`signal` in `columns`, or -1 if it is absent.
   int FindColumn(const std::string& cylinder, const std::string& signal) const;
 

@@ -37,6 +37,47 @@ std::string AttachedCylinders(const mjModel* m, std::vector<CylinderInfo>* cylin
   return "the model has no pneumatic cylinder (no <text name=\"pneumatic:...\">)";
 }
 
+std::string CheckMeasurements(const mjModel* m, const log::Log& log) {
+  std::vector<CylinderInfo> cylinders;
+  if (std::string problem = AttachedCylinders(m, &cylinders); !problem.empty()) return problem;
+  char text[200];
+  for (size_t c = 0; c < log.columns.size(); ++c) {
+    const log::Column& column = log.columns[c];
+    const CylinderInfo* cylinder = nullptr;
+    for (const CylinderInfo& info : cylinders) cylinder = info.name == column.cylinder ? &info : cylinder;
+    if (!cylinder) continue;
+    double low = -1e300, high = 1e300;
+    bool low_excluded = false;  // absolute pressures: 0 itself is impossible
+    std::string what;
+    const std::string& s = column.signal;
+    if (s == "p_P" || s == "p_N" || s == "p_S") {
+      low = 0, low_excluded = true, high = 10 * cylinder->p_supply, what = "an absolute pressure in Pa";
+    } else if (s == "x") {
+      std::string ignored;
+      const double stroke = GetParameter(m, cylinder->name, "stroke", &ignored).value_or(1e300);
+      high = 0.6 * stroke, low = -high;
+      char stroke_text[64];
+      std::snprintf(stroke_text, sizeof(stroke_text), "a position on a stroke of %.9g", stroke);
+      what = stroke_text;
+    } else {
+      for (const auto& [signal, id] : cylinder->command_actuators) {
+        if (signal == s && m->actuator_ctrllimited[id]) {
+          low = m->actuator_ctrlrange[2 * id], high = m->actuator_ctrlrange[2 * id + 1], what = "a command";
+        }
+      }
+    }
+    for (size_t row = 0; row < log.rows(); ++row) {
+      const double v = log.values[c][row];
+      if ((low_excluded ? v <= low : v < low) || v > high) {
+        std::snprintf(text, sizeof(text), ": %s = %.9g is impossible for %s (valid: %s%.9g, %.9g])", column.name().c_str(), v,
+                      what.c_str(), low_excluded ? "(" : "[", low, high);
+        return log.Where(row, c) + text;
+      }
+    }
+  }
+  return "";
+}
+
 RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutOptions& options) {
   RolloutResult result;
   auto fail = [&](const std::string& message) {
@@ -58,6 +99,7 @@ RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutO
       return fail("command log: " + problem);
     }
     if (commands->rows() < 2) return fail("the command log needs at least two rows to define its period");
+    if (std::string problem = CheckMeasurements(m, *commands); !problem.empty()) return fail(problem);
     if (options.period > 0) return fail("a row period is only chosen without a command log (the log's rows set it)");
     period = commands->Period();
     t0 = commands->time[0];

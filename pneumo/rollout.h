@@ -47,6 +47,13 @@ struct RolloutResult {
 // v, p_S sampled at each row's time before that row's command acts.
 RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutOptions& options);
 
+// The first value of `log` that no sensor or valve of m can give, as "FILE:LINE:COLUMN: message"
+// (log::Log::Where), or "": an absolute pressure (p_P, p_N, p_S) <= 0 Pa or above 10 p_supply, a
+// position x beyond its cylinder's stroke by more than 10 % of the stroke (the margin a sensor's
+// noise and calibration may take), a command outside its actuator's ctrlrange. Every tool that
+// reads a log of m checks it, every row (the replay itself reads only the first row's state).
+std::string CheckMeasurements(const mjModel* m, const log::Log& log);
+
 // The cylinders of an attached model; "" or why there are none to drive: the model has no
 // "pneumatic:" text, or has some but was not attached.
 std::string AttachedCylinders(const mjModel* m, std::vector<CylinderInfo>* cylinders);

@@ -176,7 +176,8 @@ TEST_F(RolloutTest, StartsFromTheLogsFirstState) {
   log::Log commands = MakeLog({"cyl.u", "cyl.p_P", "cyl.p_N", "cyl.x", "cyl.v"}, 10, 1e-3,
                               [](const std::string& name, size_t r, double) {
                                 if (name == "cyl.u") return 1.0;
-                                if (r > 0) return 0.0;  // later rows' states are not used open loop
+                                // later rows' states are not used open loop (atmospheric, centred: possible values)
+                                if (r > 0) return name == "cyl.p_P" || name == "cyl.p_N" ? 1e5 : 0.0;
                                 if (name == "cyl.p_P") return 2.5e5;
                                 if (name == "cyl.p_N") return 1.5e5;
                                 if (name == "cyl.x") return 0.01;
@@ -209,6 +210,37 @@ TEST_F(RolloutTest, RefusesPeriodThatIsNotWholeSteps) {
   result = Rollout(m(), nullptr, options);
   EXPECT_FALSE(result.log);
   EXPECT_THAT(result.error, HasSubstr("whole number of model timesteps"));
+}
+
+// a later row that no sensor can give is refused with its place in the file, not replayed past
+TEST_F(RolloutTest, RefusesImpossibleMeasurementsInAnyRowNamingFileLineAndColumn) {
+  Load("rig_per_chamber.xml");
+  struct Case {
+    const char* column;
+    double value;
+    const char* expected;
+  };
+  for (Case c : {Case{"cyl.p_P", -1, "cyl.p_P = -1 is impossible for an absolute pressure"},
+                 Case{"cyl.x", 2, "cyl.x = 2 is impossible for a position on a stroke of 0.1"},
+                 Case{"cyl.uN", 10.5, "cyl.uN = 10.5 is impossible for a command"}}) {
+    log::Log log = MakeLog({"cyl.uP", "cyl.uN", "cyl.p_P", "cyl.p_N", "cyl.x"}, 10, 1e-3,
+                           [](const std::string& name, size_t, double) {
+                             return name == "cyl.x" ? 0.0 : name[4] == 'u' ? 5.0 : 1e5;
+                           });
+    const int column = log.FindColumn("cyl", std::string(c.column).substr(4));
+    log.values[column][6] = c.value;
+    // through a file, as a tool reads it: row 6 is line 8 (the header is line 1), and the file's
+    // columns count time as column 1
+    const std::string path = ::testing::TempDir() + "impossible_" + std::to_string(getpid()) + ".csv";
+    ASSERT_EQ(log::WriteLog(path, log), "");
+    log::ReadResult read = log::ReadLog(path, {});
+    ASSERT_TRUE(read.log) << read.error;
+    RolloutResult result = Rollout(m(), &*read.log, {});
+    EXPECT_FALSE(result.log);
+    EXPECT_THAT(result.error, StartsWith(path + ":8:" + std::to_string(column + 2) + ": ")) << c.column;
+    EXPECT_THAT(result.error, HasSubstr(c.expected));
+    fs::remove(path);
+  }
 }
 
 TEST_F(RolloutTest, RefusesMissingCommandColumn) {
