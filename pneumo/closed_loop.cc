@@ -189,6 +189,9 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
   std::vector<double> squared_error(channels.size(), 0);
   std::vector<CylinderMeasurement> measured(channels.size());
   std::vector<CylinderCommands> commands(channels.size());
+  if (options.observer) {
+    if (std::string e = options.observer(d.get()); !e.empty()) return fail(e);
+  }
   const auto start = std::chrono::steady_clock::now();
   for (long k = 0; k < ticks; ++k) {
     const double t = d->time;
@@ -235,7 +238,12 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
       }
     }
 
-    for (long step = 0; step < steps_per_tick; ++step) mj_step(m, d.get());
+    for (long step = 0; step < steps_per_tick; ++step) {
+      mj_step(m, d.get());
+      if (options.observer) {
+        if (std::string e = options.observer(d.get()); !e.empty()) return fail(e);
+      }
+    }
     summary.steps += steps_per_tick;
     for (int w : {mjWARN_BADQACC, mjWARN_BADQVEL, mjWARN_BADQPOS, mjWARN_BADCTRL}) {
       if (d->warning[w].number > 0) {

@@ -47,6 +47,9 @@ struct ClosedLoopOptions {
   double noise_position = 0;  // m or rad: on the measured x
   // called now and then with the fraction done (0..1), for a progress display
   std::function<void(double)> progress;
+  // called with the state before the first step and after every step (e.g. to render frames);
+  // a non-empty return ends the run with that error
+  std::function<std::string(const mjData*)> observer;
 };
 
 // What a run did, for `--summary`.

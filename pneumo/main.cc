@@ -5,6 +5,7 @@
 //   pneumo rollout MODEL.xml --controller pid --reference GESTURE.csv --duration 10 --out OUT.csv   closed loop
 //   pneumo generate MODEL.xml --duration 100 --seed 1 --out LOG.csv   closed-loop identification log (rig C)
 //   pneumo identify MODEL.xml LOG.csv --out PARAMS.json --heldout LOG2.csv   fit paper 000's model and physical parameters
+//   pneumo render MODEL.xml --out frame.png [--log LOG.csv --time T]   a picture, off screen (OSMesa)
 //   pneumo info MODEL.xml                                       cylinders and their signals
 //   pneumo params [--markdown]                                  the MJCF parameter table
 #include <chrono>
@@ -21,6 +22,7 @@
 #include "identify_command.h"
 #include "log_csv.h"
 #include "pneumatic/pneumatic.h"
+#include "render_command.h"
 #include "rollout.h"
 #include "rollout_command.h"
 
@@ -181,6 +183,12 @@ int main(int argc, char** argv) {
   rollout->add_option("--summary", closed.summary_path,
                       "JSON summary: steps, real-time factor, tracking errors, pressure ranges, warnings");
   rollout->add_option("--jobs", closed.jobs, "runs at once, each on its own copy of the model")->check(CLI::Range(1, 256));
+  rollout->add_option("--frames", closed.frames_dir,
+                      "closed loop: write rendered frames DIR/frame_00000.png... (and DIR/video.mp4 with ffmpeg)");
+  rollout->add_option("--fps", closed.fps, "frames per second of simulated time")->capture_default_str();
+  rollout->add_option("--width", closed.width, "frame width, pixels")->capture_default_str()->check(CLI::Range(1, 8192));
+  rollout->add_option("--height", closed.height, "frame height, pixels")->capture_default_str()->check(CLI::Range(1, 8192));
+  rollout->add_option("--camera", closed.camera, "a camera of the model (default: a free camera on the whole model)");
 
   pneumatic::GenerateOptions generate_options;
   std::string generate_model, generate_out;
@@ -239,6 +247,21 @@ int main(int argc, char** argv) {
       "fitted to the measured ones; standard errors from the covariance at the optimum (Newey-West for residuals\n"
       "correlated in time), with a flag on each poorly determined parameter naming the reason.");
 
+  pneumatic::RenderOptions render_options;
+  CLI::App* render = app.add_subcommand(
+      "render", "draw a model off screen (OSMesa) to a PNG, each cylinder coloured by its pressure difference");
+  render->add_option("model", render_options.model_path, "MJCF model")->required();
+  render->add_option("--out", render_options.out_path, "PNG to write")->required();
+  std::string render_log;
+  double render_time = 0;
+  render->add_option("--log", render_log, "draw the state of a row of this log (p_P, p_N, x, v)");
+  render->add_option("--time", render_time, "the row: the last at or before this time, s (default: the first)");
+  render->add_option("--width", render_options.width, "pixels")->capture_default_str()->check(CLI::Range(1, 8192));
+  render->add_option("--height", render_options.height, "pixels")->capture_default_str()->check(CLI::Range(1, 8192));
+  render->add_option("--camera", render_options.camera, "a camera of the model (default: a free camera on the whole model)");
+  render->footer("Colours: grey where p_P = p_N, red as chamber P's pressure exceeds N's (P pushes), blue the reverse, "
+                 "full at a difference of p_supply - p_exhaust.");
+
   CLI::App* info = app.add_subcommand("info", "list a model's cylinders and their log signals");
   info->add_option("model", model_path, "MJCF model")->required();
 
@@ -259,7 +282,8 @@ int main(int argc, char** argv) {
     return pneumatic::RunClosedLoopCommand(closed);
   }
   for (const char* closed_only : {"--controller-config", "--reference", "--control-rate", "--seed", "--noise-pressure",
-                                  "--noise-position", "--variations", "--summary", "--jobs"}) {
+                                  "--noise-position", "--variations", "--summary", "--jobs", "--frames", "--fps",
+                                  "--width", "--height", "--camera"}) {
     if (rollout->count(closed_only) > 0) return Fail(std::string(closed_only) + " needs --controller");
   }
   if (*rollout) {
@@ -272,7 +296,12 @@ int main(int argc, char** argv) {
     identify_options.physical = !skip_physical;
     return pneumatic::RunIdentify(identify_options);
   }
-  if (*info) return RunInfo(model_path);
+  if (*render) {
+    if (render->count("--log")) render_options.log_path = render_log;
+    if (render->count("--time")) render_options.time = render_time;
+    return pneumatic::RunRender(render_options);
+  }
+    if (*info) return RunInfo(model_path);
   if (*params) return RunParams(markdown);
   return 2;
 }

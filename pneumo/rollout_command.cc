@@ -17,6 +17,7 @@
 #include "log_csv.h"
 #include "output_file.h"
 #include "pneumatic/pneumatic.h"
+#include "render_command.h"
 
 namespace pneumatic {
 namespace {
@@ -196,6 +197,9 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
     return Fail(std::to_string(runs.size()) + " runs: --out and --summary must contain {run}, e.g. --out 'runs/{run}.csv'");
   }
 
+  if (!options.frames_dir.empty() && runs.size() > 1) {
+    return Fail("--frames renders one run: give one seed and no variations");
+  }
   // each run on its own copy of the model; workers take runs in order, outputs are per run
   std::atomic<size_t> next{0}, done{0};
   std::mutex report;
@@ -222,8 +226,29 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
         ClosedLoopOptions o = base;
         o.seed = run.seed;
         if (single) o.progress = [&](double f) { bar(f); };
-        ClosedLoopResult result = RunClosedLoop(copy.get(), o);
-        if (!result.log) {
+        std::unique_ptr<FrameWriter> frames;
+        if (!options.frames_dir.empty()) {
+          FrameOptions frame_options;
+          frame_options.dir = options.frames_dir;
+          frame_options.fps = options.fps;
+          frame_options.width = options.width, frame_options.height = options.height;
+          frame_options.camera = options.camera;
+          frames = FrameWriter::Create(copy.get(), frame_options, &e);
+          if (frames) o.observer = [&](const mjData* d) { return frames->Offer(d); };
+        }
+        ClosedLoopResult result = e.empty() ? RunClosedLoop(copy.get(), o) : ClosedLoopResult{};
+        if (e.empty() && result.log && frames) {
+          e = frames->Finish();
+          if (e.empty()) {
+            std::lock_guard<std::mutex> lock(report);
+            std::fprintf(stderr, "pneumo rollout: wrote %d frames to %s%s%s\n", frames->frames_written(),
+                         options.frames_dir.c_str(), frames->video_path().empty() ? "" : " and ",
+                         frames->video_path().c_str());
+          }
+        }
+        if (!e.empty()) {
+          // nothing more to do for this run
+        } else if (!result.log) {
           e = result.error;
         } else {
           result.log->comments.insert(result.log->comments.begin(), "model: " + options.model_path);

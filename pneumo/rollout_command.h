@@ -22,6 +22,10 @@ struct ClosedLoopCommandOptions {
   std::string out_path;                 // log; with several runs it must contain "{run}"
   std::string summary_path;             // optional JSON; with several runs it must contain "{run}"
   int jobs = 1;                         // runs at once, each on its own copy of the model
+  std::string frames_dir;               // optional: rendered frames of the run (one run only)
+  double fps = 30;
+  int width = 640, height = 480;
+  std::string camera;                   // "" = a free camera looking at the whole model
 };
 
 // Runs the command; returns the exit code (0, or 1 with a message on stderr).
