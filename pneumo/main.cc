@@ -6,6 +6,7 @@
 //   pneumo generate MODEL.xml --duration 100 --seed 1 --out LOG.csv   closed-loop identification log (rig C)
 //   pneumo identify MODEL.xml LOG.csv --out PARAMS.json --heldout LOG2.csv   fit paper 000's model and physical parameters
 //   pneumo render MODEL.xml --out frame.png [--log LOG.csv --time T]   a picture, off screen (OSMesa)
+//   pneumo reproduce hodgson2012 [--out DIR]                  a paper's experiment rerun in simulation
 //   pneumo info MODEL.xml                                       cylinders and their signals
 //   pneumo params [--markdown]                                  the MJCF parameter table
 #include <chrono>
@@ -23,6 +24,7 @@
 #include "log_csv.h"
 #include "pneumatic/pneumatic.h"
 #include "render_command.h"
+#include "reproduce_hodgson2012.h"
 #include "rollout.h"
 #include "rollout_command.h"
 
@@ -262,6 +264,14 @@ int main(int argc, char** argv) {
   render->footer("Colours: grey where p_P = p_N, red as chamber P's pressure exceeds N's (P pushes), blue the reverse, "
                  "full at a difference of p_supply - p_exhaust.");
 
+  std::string reproduce_name, reproduce_out;
+  CLI::App* reproduce = app.add_subcommand(
+      "reproduce", "rerun a paper's experiment on its rig and print its headline figures next to the paper's (JSON)");
+  reproduce->add_option("name", reproduce_name, "the paper: hodgson2012 (paper 002's sliding controllers on rig A)")
+      ->required()
+      ->check(CLI::IsMember({"hodgson2012"}));
+  reproduce->add_option("--out", reproduce_out, "directory for the JSON, the logs and the comparison plots (PNG)");
+
   CLI::App* info = app.add_subcommand("info", "list a model's cylinders and their log signals");
   info->add_option("model", model_path, "MJCF model")->required();
 
@@ -300,6 +310,13 @@ int main(int argc, char** argv) {
     if (render->count("--log")) render_options.log_path = render_log;
     if (render->count("--time")) render_options.time = render_time;
     return pneumatic::RunRender(render_options);
+  }
+    if (*reproduce) {
+    std::string error;
+    nlohmann::json result = pneumatic::ReproduceHodgson2012(PNEUMATIC_MODELS_DIR, reproduce_out, &error);
+    if (result.is_null()) return Fail("reproduce " + reproduce_name + ": " + error);
+    std::printf("%s\n", result.dump(2).c_str());
+    return 0;
   }
     if (*info) return RunInfo(model_path);
   if (*params) return RunParams(markdown);
