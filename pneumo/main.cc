@@ -130,18 +130,26 @@ int RunInfo(const std::string& model_path) {
 }
 
 int RunParams(bool markdown) {
-  const auto& params = pneumatic::Parameters();
-  if (markdown) {
-    std::printf("| key | unit | default | valid | scope | meaning |\n|---|---|---|---|---|---|\n");
-    for (const auto& p : params) {
-      std::printf("| `%s` | %s | %s | %s | %s | %s |\n", p.key.c_str(), p.unit.c_str(), p.default_value.c_str(),
-                  p.valid.c_str(), p.scope.c_str(), p.meaning.c_str());
+  // the cylinder keys ("pneumatic:<cylinder>"), then those of a shared supply reservoir
+  // ("pneumatic_reservoir:<name>")
+  const std::pair<const char*, const std::vector<pneumatic::ParameterDoc>*> tables[] = {
+      {"cylinder keys: <text name=\"pneumatic:<cylinder>\" data=\"...\">", &pneumatic::Parameters()},
+      {"reservoir keys: <text name=\"pneumatic_reservoir:<name>\" data=\"...\">", &pneumatic::ReservoirParameters()}};
+  for (const auto& [title, params] : tables) {
+    if (markdown) {
+      std::printf("%s%s\n\n| key | unit | default | valid | scope | meaning |\n|---|---|---|---|---|---|\n",
+                  params == tables[0].second ? "" : "\n", title);
+      for (const auto& p : *params) {
+        std::printf("| `%s` | %s | %s | %s | %s | %s |\n", p.key.c_str(), p.unit.c_str(), p.default_value.c_str(),
+                    p.valid.c_str(), p.scope.c_str(), p.meaning.c_str());
+      }
+      continue;
     }
-    return 0;
-  }
-  for (const auto& p : params) {
-    std::printf("%-22s %-14s default %-24s valid %s\n  %s; %s\n", p.key.c_str(), p.unit.c_str(), p.default_value.c_str(),
-                p.valid.c_str(), p.scope.c_str(), p.meaning.c_str());
+    std::printf("%s%s\n", params == tables[0].second ? "" : "\n", title);
+    for (const auto& p : *params) {
+      std::printf("%-22s %-14s default %-24s valid %s\n  %s; %s\n", p.key.c_str(), p.unit.c_str(),
+                  p.default_value.c_str(), p.valid.c_str(), p.scope.c_str(), p.meaning.c_str());
+    }
   }
   return 0;
 }

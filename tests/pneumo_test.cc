@@ -608,12 +608,18 @@ TEST_F(PneumoBinaryTest, ParamsListsEveryKey) {
 TEST_F(PneumoBinaryTest, ParamsMarkdownPrintsATable) {
   Outcome run = Pneumo("params --markdown");
   EXPECT_EQ(run.exit_code, 0) << run.err;
-  EXPECT_THAT(run.out, StartsWith("| key | unit | default | valid | scope | meaning |\n|---|---|---|---|---|---|\n"));
-  for (const ParameterDoc& p : Parameters()) EXPECT_THAT(run.out, HasSubstr("| `" + p.key + "` |"));
+  // two tables: the cylinder keys, then the keys of a shared supply reservoir
+  const std::string header = "| key | unit | default | valid | scope | meaning |\n|---|---|---|---|---|---|\n";
+  EXPECT_THAT(run.out, StartsWith("cylinder keys: "));
+  const size_t reservoir = run.out.find("reservoir keys: ");
+  ASSERT_NE(reservoir, std::string::npos);
+  EXPECT_NE(run.out.find(header), run.out.rfind(header));
+  for (const ParameterDoc& p : Parameters()) EXPECT_THAT(run.out.substr(0, reservoir), HasSubstr("| `" + p.key + "` |"));
+  for (const ParameterDoc& p : ReservoirParameters()) EXPECT_THAT(run.out.substr(reservoir), HasSubstr("| `" + p.key + "` |"));
   // one table row per key
-  size_t lines = 0;
-  for (char c : run.out) lines += c == '\n';
-  EXPECT_EQ(lines, Parameters().size() + 2);
+  size_t rows = 0;
+  for (size_t at = run.out.find("\n| `"); at != std::string::npos; at = run.out.find("\n| `", at + 1)) ++rows;
+  EXPECT_EQ(rows, Parameters().size() + ReservoirParameters().size());
 }
 
 TEST_F(PneumoBinaryTest, InfoListsTheCommandsOfTheOnOffRig) {

@@ -338,6 +338,29 @@ void PistonLeakExchange(const ChamberModel k[2], const double volume[2], double 
   p[1] -= b * decayed;
 }
 
+double SupplyMassOverStep(const ChamberModel& k, const PortOpenings& o0, const PortOpenings& o1,
+                          const VolumePath& volume, double p0, double p1, double piston_leak, double p_other0,
+                          double p_other1, double h) {
+  // the net mass from the pressure change the flow made (the compression's share removed)
+  double v0 = volume.At(0), v1 = volume.At(h), exponent = k.work_factor * k.polytropic_index;
+  double compressed = v1 != v0 ? p0 * std::exp(-exponent * std::log1p((v1 - v0) / v0)) : p0;
+  double net = (p1 - compressed) * volume.At(h / 2) / (k.polytropic_index * k.gas_rt);
+  // each part by the trapezoid rule
+  auto supply = [&](const PortOpenings& o, double p) {
+    return o.supply > 0 ? MassFlow(k.flow, o.supply, k.p_supply, p) : 0.0;
+  };
+  auto exhaust = [&](const PortOpenings& o, double p) {
+    return o.exhaust > 0 ? -MassFlow(k.flow, o.exhaust, p, k.p_exhaust) : 0.0;
+  };
+  auto leaks = [&](double p, double p_other) { return k.atmosphere_leak * (k.p_atm - p) + piston_leak * (p_other - p); };
+  double by_supply = h / 2 * (supply(o0, p0) + supply(o1, p1));
+  double by_exhaust = h / 2 * (exhaust(o0, p0) + exhaust(o1, p1));
+  double by_leaks = h / 2 * (leaks(p0, p_other0) + leaks(p1, p_other1));
+  double size = std::fabs(by_supply) + std::fabs(by_exhaust) + std::fabs(by_leaks);
+  if (!(size > 0)) return 0;
+  return by_supply + (net - by_supply - by_exhaust - by_leaks) * (std::fabs(by_supply) / size);
+}
+
 SteadyStateAndRate IdentifiedModel(const IdentifiedParams& c, double u, double v, double v_rate) {
   // paper 000 eqs. (10a)-(10e) with g of eq. (8) and k of eq. (9)
   double u_hat = u - c.c[1];

@@ -87,6 +87,17 @@ bool LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* p
 // is conserved. The adaptive step takes it in two halves around the valve flows.
 void PistonLeakExchange(const ChamberModel k[2], const double volume[2], double piston_leak, double t, double p[2]);
 
+// The mass (kg) that entered the chamber through its supply port over a step from p0 to p1 (the
+// project's own accounting, for a reservoir that feeds the port). The net mass through all ports
+// and leaks follows from the step itself: in y = p V^(alpha n) only the flow changes y, so it is
+// (p1 - p0 (V0/V1)^(alpha n)) V(h/2) / (n r T), exact for a chamber at rest. The trapezoid rule on
+// each port's and leak's flow at the start (p0, o0) and end (p1, o1) splits it; the trapezoid's
+// error is shared in proportion to each part's size, so a chamber whose only open port is the
+// supply draws exactly the net mass (with n = 1: p_res V_res + p V conserved to round-off).
+double SupplyMassOverStep(const ChamberModel& k, const PortOpenings& o0, const PortOpenings& o1,
+                          const VolumePath& volume, double p0, double p1, double piston_leak, double p_other0,
+                          double p_other1, double h);
+
 // paper 000 eq. (10): steady-state pressure s (Pa abs) and rate r (1/s) at
 // command u (V), volume sensor v = x and its rate
 struct SteadyStateAndRate {

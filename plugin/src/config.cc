@@ -43,8 +43,9 @@ struct Param {
   double min, max;            // valid range for numbers
   bool min_open, max_open;    // true: the bound itself is excluded
   const char* meaning;
-  // the value in a configuration (k: chamber); nullptr for choices and coulomb_friction
+  // the value in a configuration (k: chamber); nullptr for choices, names and coulomb_friction
   double& (*field)(CylinderConfig& c, int k);
+  bool is_name = false;  // the value is a name (supply), neither a number nor a choice; not packed
 };
 
 // accessors of a row's value in a configuration; k is the chamber (0 = P, 1 = N) for chamber keys
@@ -100,6 +101,8 @@ const Param kParams[] = {
      "v_s of the project's own Stribeck curve: friction falls from the static to the Coulomb level over this speed", CYL(stribeck_velocity)},
     {"piston_leak_conductance", Scope::kCylinder, AppliesTo::kAll, "kg/(s Pa)", "0", nullptr, 0, 1e-6, false, false,
      "laminar leakage across the piston seal, mass flow G (p_P - p_N) from P to N (the project's own form)", CYL(piston_leak_conductance)},
+    {"supply", Scope::kCylinder, AppliesTo::kAll, "", "none", nullptr, 0, 0, false, false,
+     "supply reservoir feeding the valves' supply ports: the name of a <text name=\"pneumatic_reservoir:NAME\"> element (its keys below); none = the compressor at p_supply feeds them directly", nullptr, true},
     {"step", Scope::kCylinder, AppliesTo::kAll, "", "linearized", "linearized exact explicit", 0, 0, false, false,
      "chamber integration inside a MuJoCo step: linearized exponential with an adaptive fallback (default), always adaptive implicit (exact), or plain explicit Euler (comparison only)", nullptr},
     {"step_tolerance", Scope::kCylinder, AppliesTo::kAll, "", "1e-4", nullptr, 0, 0.1, true, false,
@@ -173,6 +176,7 @@ std::string FormatBound(double v) {
 
 std::string ValidText(const Param& p) {
   if (p.choices) return p.choices;
+  if (p.is_name) return "a reservoir name";
   return std::string(p.min_open ? "(" : "[") + FormatBound(p.min) + ", " + FormatBound(p.max) +
          (p.max_open ? ")" : "]");
 }
@@ -377,6 +381,12 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
     }
   }
   if (raw.cylinder.count("coulomb_friction")) c.coulomb_friction = 0.0;
+  if (raw.cylinder.count("supply") && raw.cylinder.at("supply") != "none") {
+    c.supply = raw.cylinder.at("supply");
+    if (c.supply.find_first_of(".,=") != std::string::npos) {
+      return fail("supply", "'" + c.supply + "' is not a reservoir name (no '.', ',' or '=')");
+    }
+  }
 
   // choices given where they do not apply, and choices that rule each other out
   for (const Param& p : kParams) {
@@ -403,7 +413,7 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
   // then the values given, range-checked (k = -1: the cylinder's own value; 0, 1: chamber P's and N's)
   std::set<std::string> given_keys;
   for (const Param& p : kParams) {
-    if (p.choices) continue;
+    if (p.choices || p.is_name) continue;
     for (int k : chambers_of(p)) {
       const auto& values = k < 0 ? raw.cylinder : raw.chamber[k];
       const ChamberConfig* chamber = k < 0 ? nullptr : &c.chamber[k];
@@ -442,6 +452,12 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
   if (c.input == CommandInput::kPwm && delays && c.pwm_frequency == 0) {
     return fail(c.delay_open > 0 ? "delay_open" : "delay_close",
                 "valve delays need switched PWM (pwm_frequency > 0), the averaged model has no switching instants");
+  }
+  for (int k = 0; k < 2; ++k) {
+    if (!c.supply.empty() && c.chamber[k].model == PressureModel::kIdentified) {
+      return fail("supply", "a cylinder fed by a reservoir needs the physical pressure model in both chambers "
+                            "(the identified model of paper 000 has no supply pressure to follow)");
+    }
   }
   for (int k = 0; k < 2; ++k) {
     const ChamberConfig& ch = c.chamber[k];
@@ -514,7 +530,9 @@ std::map<std::string, std::string> ConfigPairs(const CylinderConfig& config) {
     for (int k = first; k <= last; ++k) {
       if (!Applies(p.applies, c, k < 0 ? nullptr : &c.chamber[k])) continue;
       std::string key = k < 0 ? p.key : std::string(k == 0 ? "P." : "N.") + p.key;
-      if (p.choices) {
+      if (p.is_name) {
+        if (!c.supply.empty()) pairs[key] = c.supply;
+      } else if (p.choices) {
         pairs[key] = ChoiceText(p, ChoiceIndex(c, p.key, std::max(k, 0)));
       } else if (p.field) {
         pairs[key] = FormatNumber(p.field(c, std::max(k, 0)));
@@ -543,13 +561,14 @@ std::string FormatNumber(double v) {
 
 int PackedConfigSize() {
   int n = 0;
-  for (const Param& p : kParams) n += p.scope == Scope::kCylinder ? 1 : 2;
+  for (const Param& p : kParams) n += p.is_name ? 0 : p.scope == Scope::kCylinder ? 1 : 2;
   return n;
 }
 
 void PackConfig(const CylinderConfig& config, double* out) {
   CylinderConfig c = config;
   for (const Param& p : kParams) {
+    if (p.is_name) continue;
     int first = p.scope == Scope::kCylinder ? -1 : 0, last = p.scope == Scope::kCylinder ? -1 : 1;
     for (int k = first; k <= last; ++k) {
       if (p.choices) {
@@ -563,9 +582,12 @@ void PackConfig(const CylinderConfig& config, double* out) {
   }
 }
 
-std::optional<CylinderConfig> UnpackConfig(const std::string& name, const double* values, std::string* error) {
+std::optional<CylinderConfig> UnpackConfig(const std::string& name, const double* values, std::string* error,
+                                           const std::string& supply) {
   CylinderConfig c;
+  c.supply = supply;
   for (const Param& p : kParams) {
+    if (p.is_name) continue;
     int first = p.scope == Scope::kCylinder ? -1 : 0, last = p.scope == Scope::kCylinder ? -1 : 1;
     for (int k = first; k <= last; ++k) {
       double v = *values++;
@@ -595,6 +617,7 @@ std::optional<double> ConfigValue(const CylinderConfig& config, const std::strin
   };
   if (!p) return fail("unknown key (see plugin/README.md or 'pneumo params')");
   if (p->scope == Scope::kChamber && base == key) return fail("a chamber key: give P." + key + " or N." + key);
+  if (p->is_name) return fail("holds a name ('" + (config.supply.empty() ? "none" : config.supply) + "'), not a number");
   if (it == pairs.end()) return fail(std::string("applies only to ") + AppliesText(p->applies));
   if (p->choices) return ChoiceIndex(config, base, key[0] == 'N' ? 1 : 0);
   return std::strtod(it->second.c_str(), nullptr);

@@ -101,6 +101,9 @@ struct CylinderConfig {
   std::optional<double> coulomb_friction;  // N (N m): sliding friction level
   double stribeck_velocity = 0;            // m/s (rad/s)
   double piston_leak_conductance = 0;      // kg/(s Pa): laminar leak G (p_P - p_N) from P to N
+  // the supply reservoir ("pneumatic_reservoir:<supply>") feeding the supply ports; empty: the
+  // compressor at p_supply feeds them directly
+  std::string supply;
   // numerical method
   ChamberStep step = ChamberStep::kLinearized;
   double step_tolerance = 0;   // local error per substep, fraction of p_supply - p_exhaust
@@ -122,8 +125,10 @@ std::string FormatConfig(const CylinderConfig& c);
 // This is how a cylinder's parameters are stored in mjModel.
 int PackedConfigSize();
 void PackConfig(const CylinderConfig& c, double* out);  // writes PackedConfigSize() numbers
-// back from numbers, validated by the parser as MJCF text would be
-std::optional<CylinderConfig> UnpackConfig(const std::string& name, const double* values, std::string* error);
+// back from numbers, validated by the parser as MJCF text would be; the supply reservoir's name is
+// not a number, and the engine stores it apart (as its actuator's id)
+std::optional<CylinderConfig> UnpackConfig(const std::string& name, const double* values, std::string* error,
+                                           const std::string& supply = "");
 
 // The value of one key ("stroke", "P.area"; choices as their index), or nullopt and
 // *error when the key is unknown, needs a P./N. prefix, or does not apply.

@@ -55,29 +55,36 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
     return std::nullopt;
   };
 
-  // the actuators this configuration needs, by role name
-  std::vector<std::string> commands;
-  switch (cfg.valve) {
-    case ValveKind::kOnOff:
-      commands = cfg.input == CommandInput::kPwm ? std::vector<std::string>{"duty"}
-                                                 : std::vector<std::string>{"u1", "u2", "u3", "u4"};
-      break;
-    case ValveKind::kProportional53: commands = {"u"}; break;
-    case ValveKind::kProportionalPerChamber: commands = {"uP", "uN"}; break;
-  }
-  // valve state holders: the command actuators themselves, or u1..u4 for delayed PWM valves
-  std::vector<std::string> states;
-  if (ValvesHaveState(cfg)) {
-    states = cfg.valve == ValveKind::kProportional53 ? std::vector<std::string>{"u"}
-                                                     : std::vector<std::string>{"u1", "u2", "u3", "u4"};
+  // the actuators this configuration needs, from the role table (roles.h)
+  int row_count = 0;
+  const RoleSpec* rows = RoleTable(&row_count);
+  auto replace_name = [&](std::string text) {
+    for (size_t at = text.find("{}"); at != std::string::npos; at = text.find("{}", at + name.size())) {
+      text.replace(at, 2, name);
+    }
+    return text;
+  };
+  // "missing: <why> (role '<suffix>', required by <keys>)"
+  auto missing = [&](const RoleSpec& r, const std::string& why) {
+    return fail(name + "." + r.suffix, "missing: " + replace_name(why) + " (role '" + r.suffix + "', required by " +
+                                           r.required_by + ")");
+  };
+  // valve commands (their ctrl) and valve states (their act), in ValveInputs order
+  std::vector<const RoleSpec*> commands, states;
+  for (int i = 0; i < row_count; ++i) {
+    const RoleSpec& r = rows[i];
+    if (r.owner != RoleOwner::kCylinder || r.role != Role::kCommand) continue;
+    if (r.command(&cfg)) commands.push_back(&r);
+    if (r.state(&cfg)) states.push_back(&r);
   }
 
   // chambers: user dynamics and gain, no bias, one shared transmission
   const char* chamber_names[2] = {"P", "N"};
   for (int k = 0; k < 2; ++k) {
+    const RoleSpec& role = *FindRole(RoleOwner::kCylinder, chamber_names[k]);
     std::string full = name + "." + chamber_names[k];
     int id = mj_name2id(m, mjOBJ_ACTUATOR, full.c_str());
-    if (id < 0) return fail(full, "missing: each cylinder needs actuators '" + name + ".P' and '" + name + ".N'");
+    if (id < 0) return missing(role, role.missing);
     if (m->actuator_dyntype[id] != mjDYN_USER) return fail(full, "needs dyntype=\"user\" (its act is the chamber's gauge pressure)");
     // user as written in MJCF; fixed once attached (WriteGains: +A_P, -A_N)
     double area_gain = k == 0 ? cfg.chamber[0].area : -cfg.chamber[1].area;
@@ -111,26 +118,26 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
   }
 
   // valve commands and states
-  for (size_t i = 0; i < commands.size(); ++i) {
-    std::string full = name + "." + commands[i];
+  for (const RoleSpec* r : commands) {
+    std::string full = name + "." + r->suffix;
     int id = mj_name2id(m, mjOBJ_ACTUATOR, full.c_str());
-    if (id < 0) return fail(full, "missing: this valve arrangement is commanded through its ctrl");
-    c.command_id_[i] = id;
-    c.info_.command_actuators.push_back({commands[i], id});
+    if (id < 0) return missing(*r, r->missing);
+    c.command_id_[r->index] = id;
+    c.info_.command_actuators.push_back({r->suffix, id});
   }
-  for (size_t i = 0; i < states.size(); ++i) {
-    std::string full = name + "." + states[i];
+  for (const RoleSpec* r : states) {
+    std::string full = name + "." + r->suffix;
     int id = mj_name2id(m, mjOBJ_ACTUATOR, full.c_str());
-    if (id < 0) return fail(full, "missing: it holds the state of a valve with delays");
-    c.state_id_[i] = id;
+    if (id < 0) return missing(*r, "it holds the state of a valve with delays");
+    c.state_id_[r->index] = id;
   }
   // valve actuators apply no force; those holding a valve state have user dynamics
-  std::vector<std::string> valve_roles = commands;
-  for (const std::string& role : states) {
+  std::vector<const RoleSpec*> valve_roles = commands;
+  for (const RoleSpec* role : states) {
     if (std::find(commands.begin(), commands.end(), role) == commands.end()) valve_roles.push_back(role);
   }
-  for (const std::string& role : valve_roles) {
-    std::string full = name + "." + role;
+  for (const RoleSpec* role : valve_roles) {
+    std::string full = name + "." + role->suffix;
     int id = mj_name2id(m, mjOBJ_ACTUATOR, full.c_str());
     if (!HasZeroForce(m, id)) {
       return fail(full, "a valve actuator applies no force: use gaintype=\"user\" (or gainprm=\"0\") and biastype=\"none\"");
@@ -149,15 +156,16 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
       return fail(full, "needs dyntype=\"none\": this valve has no state (no spool lag or switching delay)");
     }
     // index: which ValveInputs::state entry this actuator's act holds
-    int index = stateful ? static_cast<int>(state - states.begin()) : -1;
+    int index = stateful ? role->index : -1;
     c.actuators_.push_back({id, {Role::kCommand, -1, index}});
   }
 
   // seal friction: Coulomb level below the transmission's frictionloss (the static level)
   std::string friction_name = name + ".friction";
   int friction_id = mj_name2id(m, mjOBJ_ACTUATOR, friction_name.c_str());
-  if (cfg.coulomb_friction) {
-    if (friction_id < 0) return fail(friction_name, "missing: coulomb_friction is applied through it");
+  const RoleSpec& friction_role = *FindRole(RoleOwner::kCylinder, "friction");
+  if (RoleRequired(friction_role, &cfg)) {
+    if (friction_id < 0) return missing(friction_role, friction_role.missing);
     if (m->actuator_dyntype[friction_id] != mjDYN_NONE || m->actuator_biastype[friction_id] != mjBIAS_USER ||
         !(m->actuator_gaintype[friction_id] == mjGAIN_USER ||
           (m->actuator_gaintype[friction_id] == mjGAIN_FIXED && m->actuator_gainprm[friction_id * mjNGAIN] == 0))) {
@@ -182,13 +190,34 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
     return fail(friction_name, "present but coulomb_friction is not set");
   }
 
-  // every other "<name>.*" actuator is a typo or belongs to another valve arrangement
+  // extra states (rows of Role::kState: a delay line, a bristle, a gas temperature): user dynamics,
+  // no force; the step writes their act_dot
+  for (int i = 0; i < row_count; ++i) {
+    const RoleSpec& r = rows[i];
+    if (r.owner != RoleOwner::kCylinder || r.role != Role::kState || !r.state(&cfg)) continue;
+    std::string full = name + "." + r.suffix;
+    int id = mj_name2id(m, mjOBJ_ACTUATOR, full.c_str());
+    if (id < 0) return missing(r, r.missing);
+    if (std::string problem = StateActuatorProblem(m, id, r); !problem.empty()) return fail(full, problem);
+    if (r.index < 0 || r.index >= kMaxExtraStates) mju_error("pneumatic: role table: extra-state slot out of range");
+    c.extra_state_id_[r.index] = id;
+    c.has_extra_states_ = true;
+    c.actuators_.push_back({id, {Role::kState, -1, r.index}});
+  }
+
+  // every other "<name>.*" actuator is a typo, belongs to another valve arrangement, or is a
+  // role this configuration does not use (the role table says which keys need it)
   std::string prefix = name + ".";
   for (int id = 0; id < m->nu; ++id) {
     std::string actuator = ActuatorName(m, id);
     if (actuator.rfind(prefix, 0) != 0) continue;
     bool known = std::any_of(c.actuators_.begin(), c.actuators_.end(), [&](const auto& a) { return a.first == id; });
-    if (!known) return fail(actuator, "has no role in this cylinder (valve and input decide the command actuators)");
+    if (known) continue;
+    std::string why = "has no role in this cylinder (valve and input decide the command actuators)";
+    if (const RoleSpec* r = FindRole(RoleOwner::kCylinder, actuator.substr(prefix.size()))) {
+      why += ": role '" + std::string(r->suffix) + "' is used with " + r->required_by;
+    }
+    return fail(actuator, why);
   }
 
   // switched PWM: the step holds a bounded number of carrier edges
@@ -238,11 +267,31 @@ VolumePath Cylinder::Volume(const mjModel* m, const mjData* d, int chamber, doub
   return v;
 }
 
-void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass) const {
+double Cylinder::LargestVolume() const {
+  double v = 0;
+  for (int k = 0; k < 2; ++k) v += config_.chamber[k].dead_volume + config_.chamber[k].area * config_.stroke;
+  return v;
+}
+
+void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const double* supply_pressure,
+                    double* supply_drawn) const {
   const double h = m->opt.timestep;
   ValveInputs valves = ReadValves(m, d, pass.zero_commands);
   for (int i = 0; i < 4; ++i) {
     if (state_id_[i] >= 0) ActDot(m, d, state_id_[i]) = (ValveStateAtEnd(config_, i, valves) - valves.state[i]) / h;
+  }
+  // extra states of the role table with no physics yet hold their value
+  if (has_extra_states_) {
+    for (int id : extra_state_id_) {
+      if (id >= 0) ActDot(m, d, id) = 0;
+    }
+  }
+  // the chambers' models; a reservoir's pressure at the start of the step on the supply ports
+  const ChamberModel* models = chamber_model_;
+  ChamberModel fed[2];
+  if (supply_pressure) {
+    for (int k = 0; k < 2; ++k) fed[k] = chamber_model_[k], fed[k].p_supply = *supply_pressure;
+    models = fed;
   }
 
   // act_dot of each chamber: (p(t + h) - p(t)) / h, or dp/dt for step=explicit
@@ -280,17 +329,17 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass) const {
     if (config_.step == ChamberStep::kLinearized) {
       const PortSchedule* schedules[2] = {&ports[0], &ports[1]};
       if (leak > 0 && physical[0] && physical[1]) {
-        done[0] = done[1] = LinearizedPressureStep(2, chamber_model_, schedules, volume, leak, p0, h, p1);
+        done[0] = done[1] = LinearizedPressureStep(2, models, schedules, volume, leak, p0, h, p1);
       } else {
         for (int k = 0; k < 2; ++k) {
-          if (physical[k]) done[k] = LinearizedPressureStep(1, &chamber_model_[k], &schedules[k], &volume[k], 0, &p0[k], h, &p1[k]);
+          if (physical[k]) done[k] = LinearizedPressureStep(1, &models[k], &schedules[k], &volume[k], 0, &p0[k], h, &p1[k]);
         }
       }
     }
     if (config_.step == ChamberStep::kExplicit) {
       for (int k = 0; k < 2; ++k) {
         if (physical[k]) {
-          rate[k] = PressureRate(chamber_model_[k], ports[k].At(0), p0[k], volume[k].At(0), volume[k].RateAt(0), leak,
+          rate[k] = PressureRate(models[k], ports[k].At(0), p0[k], volume[k].At(0), volume[k].RateAt(0), leak,
                                  p0[1 - k]);
         }
       }
@@ -300,14 +349,30 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass) const {
       bool coupled = leak > 0 && physical[0] && physical[1];
       double p[2] = {p0[0], p0[1]};
       double v_start[2] = {volume[0].At(0), volume[1].At(0)}, v_end[2] = {volume[0].At(h), volume[1].At(h)};
-      if (coupled) PistonLeakExchange(chamber_model_, v_start, leak, h / 2, p);
+      if (coupled) PistonLeakExchange(models, v_start, leak, h / 2, p);
       for (int k = 0; k < 2; ++k) {
-        if (physical[k] && !done[k]) p1[k] = PhysicalPressureStep(chamber_model_[k], ports[k], volume[k], p[k], h);
+        if (physical[k] && !done[k]) p1[k] = PhysicalPressureStep(models[k], ports[k], volume[k], p[k], h);
       }
-      if (coupled) PistonLeakExchange(chamber_model_, v_end, leak, h / 2, p1);
+      if (coupled) PistonLeakExchange(models, v_end, leak, h / 2, p1);
     }
     for (int k = 0; k < 2; ++k) {
       if (physical[k] && config_.step != ChamberStep::kExplicit) rate[k] = (p1[k] - p0[k]) / h;
+    }
+    // the mass the supply ports draw over the step, for the reservoir (both chambers are physical:
+    // the parser refuses supply= with the identified model)
+    if (supply_drawn) {
+      double coupled_leak = leak > 0 && physical[0] && physical[1] ? leak : 0;
+      for (int k = 0; k < 2; ++k) {
+        if (!physical[k]) continue;
+        if (config_.step == ChamberStep::kExplicit) {
+          // plain explicit Euler: the flow at the start of the step, as the chamber takes it
+          double opening = ports[k].At(0).supply;
+          *supply_drawn += opening > 0 ? h * MassFlow(models[k].flow, opening, models[k].p_supply, p0[k]) : 0.0;
+        } else {
+          *supply_drawn += SupplyMassOverStep(models[k], ports[k].At(0), ports[k].At(h), volume[k], p0[k], p1[k],
+                                              coupled_leak, p0[1 - k], p1[1 - k], h);
+        }
+      }
     }
   }
   for (int k = 0; k < 2; ++k) ActDot(m, d, info_.chamber_actuator[k]) = rate[k];

@@ -13,23 +13,10 @@
 #include "chamber.h"
 #include "config.h"
 #include "pneumatic/pneumatic.h"
+#include "roles.h"
 #include "valves.h"
 
 namespace pneumatic {
-
-// what a MuJoCo actuator is to the extension
-enum class Role {
-  kNone,      // not pneumatic: callbacks chain to the ones installed before
-  kChamber,   // "<cyl>.P" / "<cyl>.N": act = p - p_atm, force = +A_P act or -A_N act
-  kCommand,   // valve command in ctrl; act (if any) = valve state (spool, armature)
-  kFriction,  // "<cyl>.friction": seal friction as bias
-};
-
-struct ActuatorRole {
-  Role role = Role::kNone;
-  int cylinder = -1;  // index into the model's cylinders
-  int index = 0;      // chamber (0 = P, 1 = N) or valve index (u1..u4 -> 0..3)
-};
 
 // what the whole model's pass computes once for every cylinder
 struct PassInputs {
@@ -60,8 +47,13 @@ class Cylinder {
 
   // Advances the chambers and valve states over the step: writes the act_dot of the
   // chamber actuators ((p(t + h) - p(t)) / h with the configured chamber step) and of
-  // the valve-state actuators.
-  void Step(const mjModel* m, mjData* d, const PassInputs& pass) const;
+  // the valve-state actuators. A cylinder fed by a reservoir gets its pressure at the start
+  // of the step (Pa abs), which its supply ports see for the whole step instead of p_supply,
+  // and adds the mass its supply ports draw over the step (kg) to *supply_drawn.
+  void Step(const mjModel* m, mjData* d, const PassInputs& pass, const double* supply_pressure = nullptr,
+            double* supply_drawn = nullptr) const;
+  // largest total volume of the two chambers (m^3): a reservoir feeding the cylinder must exceed it
+  double LargestVolume() const;
   // Makes the force of each actuator a fixed gain on its act or ctrl: +A_P, -A_N on
   // the chamber gauge pressures, 0 for valve commands and friction.
   void WriteGains(mjModel* m) const;
@@ -77,6 +69,9 @@ class Cylinder {
   ChamberModel chamber_model_[2];
   int command_id_[4] = {-1, -1, -1, -1};  // ctrl sources, in ValveInputs::command order
   int state_id_[4] = {-1, -1, -1, -1};    // act sources, in ValveInputs::state order
+  static constexpr int kMaxExtraStates = 8;
+  int extra_state_id_[kMaxExtraStates] = {-1, -1, -1, -1, -1, -1, -1, -1};  // role table rows of Role::kState
+  bool has_extra_states_ = false;
   int dof_ = -1;                          // the joint's dof when the transmission is a slide or hinge joint
   double static_friction_ = 0;            // transmission frictionloss in actuator units
   std::vector<std::pair<int, ActuatorRole>> actuators_;

@@ -17,6 +17,12 @@
 // act_dot in increasing actuator id. The first pneumatic actuator with user
 // dynamics (the model's leader) computes the act_dot of every cylinder at once,
 // with one control check and one velocity prediction; the others return theirs.
+//
+// Supply reservoirs ("pneumatic_reservoir:<name>", reservoir.h) are stored the same way: their
+// "<name>.pressure" actuator carries its own tag, the fingerprint and the reservoir's packed
+// configuration, and the "<cylinder>.P" actuator of each cylinder it feeds carries the
+// reservoir actuator's id (plus one) after its packed configuration. The pass steps a reservoir
+// together with the chambers it feeds (StepPass).
 #include <algorithm>
 #include <atomic>
 #include <cstdint>
@@ -28,6 +34,7 @@
 
 #include "cylinder.h"
 #include "pneumatic/pneumatic.h"
+#include "reservoir.h"
 #include "velocity_prediction.h"
 
 namespace pneumatic {
@@ -41,11 +48,18 @@ constexpr int kTagSlot = 0, kFingerprintSlot = 1, kConfigSlot = 2;
 constexpr double kMemberTag = 7.3612e-291;  // an actuator of a cylinder
 constexpr double kHomeTag = 7.3613e-291;    // "<name>.P", which holds the configuration
 constexpr double kDetachedTag = 7.3614e-291;  // an actuator of a detached cylinder (its gain stays fixed)
+constexpr double kReservoirTag = 7.3615e-291;  // "<reservoir>.pressure", which holds the reservoir's configuration
+constexpr char kReservoirPrefix[] = "pneumatic_reservoir:";
+
+// the slot of "<cylinder>.P"'s user data that holds its supply reservoir's actuator id plus one (0: none)
+int SupplySlot() { return kConfigSlot + PackedConfigSize(); }
 
 // everything a step needs, decoded from a model
 struct CompiledModel {
   double fingerprint = 0;
   std::vector<Cylinder> cylinders;
+  std::vector<BoundReservoir> reservoirs;
+  std::vector<int> supply;          // by cylinder: the index of the reservoir feeding it, or -1
   std::vector<ActuatorRole> roles;  // by actuator id
   int leader = -1;                  // the pneumatic actuator whose act_dot MuJoCo asks for first
   bool predicts_velocity = false;   // some cylinder follows the predicted end-of-step velocity
@@ -69,13 +83,14 @@ const double* UserData(const mjModel* m, int id) {
 
 bool IsTagged(const mjModel* m, int id) {
   const double* user = UserData(m, id);
-  return user && (user[kTagSlot] == kMemberTag || user[kTagSlot] == kHomeTag);
+  return user && (user[kTagSlot] == kMemberTag || user[kTagSlot] == kHomeTag || user[kTagSlot] == kReservoirTag);
 }
 
 // FNV-1a over the bytes of everything a decoding takes from the model: every cylinder's name,
 // packed configuration, actuator ids and roles, and its transmission (type, target, gear, the
 // joint's dof and frictionloss); 52 bits, so that a double holds it exactly
-double Fingerprint(const mjModel* m, const std::vector<Cylinder>& cylinders) {
+double Fingerprint(const mjModel* m, const std::vector<Cylinder>& cylinders,
+                   const std::vector<BoundReservoir>& reservoirs, const std::vector<int>& supply) {
   uint64_t hash = 1469598103934665603ULL;
   auto mix = [&](const void* data, size_t size) {
     const unsigned char* bytes = static_cast<const unsigned char*>(data);
@@ -100,12 +115,85 @@ double Fingerprint(const mjModel* m, const std::vector<Cylinder>& cylinders) {
     mix(&binding.dof, sizeof(binding.dof));  // field by field: no padding bytes
     mix(&binding.static_friction, sizeof(binding.static_friction));
   }
+  // reservoirs and the links to them (nothing for a model without: its fingerprint is as before)
+  if (!reservoirs.empty()) {
+    std::vector<double> packed_reservoir(PackedReservoirSize());
+    for (const BoundReservoir& r : reservoirs) {
+      mix(r.config.name.data(), r.config.name.size());
+      PackReservoirConfig(r.config, packed_reservoir.data());
+      mix(packed_reservoir.data(), packed_reservoir.size() * sizeof(double));
+      mix(&r.actuator, sizeof(r.actuator));
+    }
+    for (int link : supply) mix(&link, sizeof(link));
+  }
   return static_cast<double>(hash & ((uint64_t{1} << 52) - 1));
 }
 
-// roles by actuator, the leader and the fingerprint of a model's bound cylinders
-std::unique_ptr<CompiledModel> Finish(const mjModel* m, std::vector<Cylinder> cylinders) {
+// Links each cylinder with supply=<name> to its reservoir: the reservoir takes the compressor
+// pressure (p_supply) and the gas (r T) of the cylinders it feeds, which must agree; it must feed
+// at least one cylinder, and its volume must exceed theirs (the stability condition of the step
+// that couples them, StepPass). False and *error naming reservoir, cylinder and key otherwise.
+bool Link(const std::vector<Cylinder>& cylinders, std::vector<BoundReservoir>* reservoirs, std::vector<int>* supply,
+          std::string* error) {
+  supply->assign(cylinders.size(), -1);
+  for (BoundReservoir& r : *reservoirs) r.cylinders.clear();
+  for (size_t c = 0; c < cylinders.size(); ++c) {
+    const CylinderConfig& config = cylinders[c].config();
+    if (config.supply.empty()) continue;
+    auto found = std::find_if(reservoirs->begin(), reservoirs->end(),
+                              [&](const BoundReservoir& r) { return r.config.name == config.supply; });
+    if (found == reservoirs->end()) {
+      *error = "cylinder '" + config.name + "': key 'supply': no reservoir '" + config.supply +
+               "' in the model (a <text name=\"pneumatic_reservoir:" + config.supply + "\"> element)";
+      return false;
+    }
+    (*supply)[c] = static_cast<int>(found - reservoirs->begin());
+    found->cylinders.push_back(static_cast<int>(c));
+  }
+  for (BoundReservoir& r : *reservoirs) {
+    std::string res = "reservoir '" + r.config.name + "': ";
+    if (r.cylinders.empty()) {
+      *error = res + "feeds no cylinder: its state '" + r.config.name + "." + kReservoirStateRole +
+               "' would never be used; give the cylinders it feeds supply=" + r.config.name + ", or remove it";
+      return false;
+    }
+    const CylinderConfig& first = cylinders[r.cylinders[0]].config();
+    double chambers = 0;
+    for (int c : r.cylinders) {
+      const CylinderConfig& other = cylinders[c].config();
+      chambers += cylinders[c].LargestVolume();
+      const char* key = other.p_supply != first.p_supply         ? "p_supply"
+                        : other.temperature != first.temperature   ? "temperature"
+                        : other.gas_constant != first.gas_constant ? "gas_constant"
+                                                                   : nullptr;
+      if (key) {
+        *error = "cylinder '" + other.name + "': key '" + key + "': differs from cylinder '" + first.name +
+                 "', which reservoir '" + r.config.name + "' also feeds: a reservoir has one compressor (p_supply) "
+                 "and holds one gas (temperature, gas_constant)";
+        return false;
+      }
+    }
+    if (!(r.config.volume > chambers)) {
+      *error = res + "key 'volume': " + FormatNumber(r.config.volume) +
+               " m^3 must exceed the largest volume of the chambers it feeds together, " + FormatNumber(chambers) +
+               " m^3: the step that couples them is stable at any timestep only then (plugin/README.md)";
+      return false;
+    }
+    r.model.p_source = first.p_supply;
+    r.model.gas_rt = first.gas_constant * first.temperature;
+    r.model.volume = r.config.volume;
+    r.model.line_conductance = r.config.line_conductance;
+    r.model.line = Iso6358Constants(r.config.line_critical_ratio);
+  }
+  return true;
+}
+
+// roles by actuator, the leader and the fingerprint of a model's bound cylinders and reservoirs;
+// null and *error if the reservoirs do not link
+std::unique_ptr<CompiledModel> Finish(const mjModel* m, std::vector<Cylinder> cylinders,
+                                      std::vector<BoundReservoir> reservoirs, std::string* error) {
   auto model = std::make_unique<CompiledModel>();
+  if (!Link(cylinders, &reservoirs, &model->supply, error)) return nullptr;
   model->roles.assign(m->nu, ActuatorRole{});
   for (size_t c = 0; c < cylinders.size(); ++c) {
     for (auto [id, role] : cylinders[c].actuators()) {
@@ -115,8 +203,14 @@ std::unique_ptr<CompiledModel> Finish(const mjModel* m, std::vector<Cylinder> cy
     }
     model->predicts_velocity |= cylinders[c].NeedsEndVelocity();
   }
-  model->fingerprint = Fingerprint(m, cylinders);
+  for (size_t r = 0; r < reservoirs.size(); ++r) {
+    int id = reservoirs[r].actuator;
+    model->roles[id] = ActuatorRole{Role::kReservoir, static_cast<int>(r), 0};
+    if (m->actuator_dyntype[id] == mjDYN_USER && (model->leader < 0 || id < model->leader)) model->leader = id;
+  }
+  model->fingerprint = Fingerprint(m, cylinders, reservoirs, model->supply);
   model->cylinders = std::move(cylinders);
+  model->reservoirs = std::move(reservoirs);
   return model;
 }
 
@@ -129,6 +223,21 @@ std::unique_ptr<CompiledModel> CompileFromText(const mjModel* m, std::string* er
     const double* user = UserData(m, id);
     attached_before |= IsTagged(m, id) || (user && user[kTagSlot] == kDetachedTag);
   }
+  std::vector<BoundReservoir> reservoirs;
+  for (int i = 0; i < m->ntext; ++i) {
+    std::string element = m->names + m->name_textadr[i];
+    if (element.rfind(kReservoirPrefix, 0) != 0) continue;
+    std::string name = element.substr(sizeof(kReservoirPrefix) - 1);
+    if (name.empty()) {
+      *error = "custom text '" + element + "': missing the reservoir name after 'pneumatic_reservoir:'";
+      return nullptr;
+    }
+    std::optional<ReservoirConfig> config = ParseReservoirConfig(name, m->text_data + m->text_adr[i], error);
+    if (!config) return nullptr;
+    std::optional<BoundReservoir> reservoir = BindReservoir(m, std::move(*config), error);
+    if (!reservoir) return nullptr;
+    reservoirs.push_back(std::move(*reservoir));
+  }
   for (int i = 0; i < m->ntext; ++i) {
     std::string element = m->names + m->name_textadr[i];
     if (element.rfind(kConfigPrefix, 0) != 0) continue;
@@ -139,28 +248,57 @@ std::unique_ptr<CompiledModel> CompileFromText(const mjModel* m, std::string* er
     }
     std::optional<CylinderConfig> config = ParseCylinderConfig(name, m->text_data + m->text_adr[i], error);
     if (!config) return nullptr;
+    for (const BoundReservoir& r : reservoirs) {
+      if (r.config.name == name) {
+        *error = "cylinder '" + name + "': a reservoir has the same name (their actuators share the prefix '" + name + ".')";
+        return nullptr;
+      }
+    }
     std::optional<Cylinder> cylinder = Cylinder::FromModel(m, std::move(*config), attached_before, error);
     if (!cylinder) return nullptr;
     cylinders.push_back(std::move(*cylinder));
   }
-  return Finish(m, std::move(cylinders));
+  return Finish(m, std::move(cylinders), std::move(reservoirs), error);
 }
 
 // the cylinders as stored in the model's actuator_user data
 std::unique_ptr<CompiledModel> CompileFromStorage(const mjModel* m, std::string* error) {
+  // reservoirs first: the cylinders name theirs by its actuator
+  std::vector<BoundReservoir> reservoirs;
+  const size_t suffix = std::strlen(kReservoirStateRole) + 1;  // ".pressure"
+  auto actuator_name = [&](int id) {
+    const char* name = id >= 0 && id < m->nu ? mj_id2name(m, mjOBJ_ACTUATOR, id) : nullptr;
+    return std::string(name ? name : "");
+  };
+  for (int id = 0; id < m->nu; ++id) {
+    const double* user = UserData(m, id);
+    if (!user || user[kTagSlot] != kReservoirTag) continue;
+    std::string actuator = actuator_name(id);
+    std::string name = actuator.size() > suffix ? actuator.substr(0, actuator.size() - suffix) : "";
+    std::optional<ReservoirConfig> config = UnpackReservoirConfig(name, user + kConfigSlot, error);
+    if (!config) return nullptr;
+    std::optional<BoundReservoir> reservoir = BindReservoir(m, std::move(*config), error);
+    if (!reservoir) return nullptr;
+    reservoirs.push_back(std::move(*reservoir));
+  }
   std::vector<Cylinder> cylinders;
   for (int id = 0; id < m->nu; ++id) {
     const double* user = UserData(m, id);
     if (!user || user[kTagSlot] != kHomeTag) continue;
-    std::string actuator = mj_id2name(m, mjOBJ_ACTUATOR, id) ? mj_id2name(m, mjOBJ_ACTUATOR, id) : "";
+    std::string actuator = actuator_name(id);
     std::string name = actuator.size() > 2 ? actuator.substr(0, actuator.size() - 2) : "";
-    std::optional<CylinderConfig> config = UnpackConfig(name, user + kConfigSlot, error);
+    std::string supply;
+    if (int link = static_cast<int>(user[SupplySlot()]); link > 0) {
+      std::string reservoir = actuator_name(link - 1);
+      supply = reservoir.size() > suffix ? reservoir.substr(0, reservoir.size() - suffix) : "?";
+    }
+    std::optional<CylinderConfig> config = UnpackConfig(name, user + kConfigSlot, error, supply);
     if (!config) return nullptr;
     std::optional<Cylinder> cylinder = Cylinder::FromModel(m, std::move(*config), true, error);
     if (!cylinder) return nullptr;
     cylinders.push_back(std::move(*cylinder));
   }
-  return Finish(m, std::move(cylinders));
+  return Finish(m, std::move(cylinders), std::move(reservoirs), error);
 }
 
 // writes the cylinders' tags, fingerprint, configurations and gains into m
@@ -174,6 +312,20 @@ void Store(mjModel* m, const CompiledModel& model) {
       if (home) PackConfig(c.config(), user + kConfigSlot);
     }
     c.WriteGains(m);
+  }
+  for (size_t c = 0; c < model.cylinders.size(); ++c) {
+    int link = model.supply[c] < 0 ? 0 : model.reservoirs[model.supply[c]].actuator + 1;
+    m->actuator_user[static_cast<size_t>(model.cylinders[c].info().chamber_actuator[0]) * m->nuser_actuator +
+                     SupplySlot()] = link;
+  }
+  for (const BoundReservoir& r : model.reservoirs) {
+    double* user = m->actuator_user + static_cast<size_t>(r.actuator) * m->nuser_actuator;
+    user[kTagSlot] = kReservoirTag;
+    user[kFingerprintSlot] = model.fingerprint;
+    PackReservoirConfig(r.config, user + kConfigSlot);
+    // no force: a fixed gain of 0
+    m->actuator_gaintype[r.actuator] = mjGAIN_FIXED;
+    for (int i = 0; i < mjNGAIN; ++i) m->actuator_gainprm[r.actuator * mjNGAIN + i] = 0;
   }
 }
 
@@ -245,6 +397,45 @@ bool ForcesAreCurrent(const mjModel* m, const mjData* d, const CompiledModel& mo
   return true;
 }
 
+// The cylinders and the reservoirs that feed them, stepped together (the order is the method):
+//  1. each reservoir's pressure p_r(t) is read from its act;
+//  2. each cylinder steps with its supply ports at p_r(t) for the whole step (its chambers' own
+//     step, unchanged: linearized, exact or explicit) and adds the mass its supply ports drew
+//     over the step to the reservoir's account (SupplyMassOverStep);
+//  3. each reservoir steps with that draw, evenly spread over the step, and the inflow through its
+//     line solved implicitly (ReservoirPressureStep).
+// What one chamber draws leaves the reservoir in the same step, so the gas is conserved. The
+// chambers step implicitly against a reservoir held at p_r(t), the reservoir explicitly in their
+// draw: in the stiff limit (valves wide open, long steps) each step moves the reservoir-chamber
+// pressure differences by the factor -(sum of V_chamber / n) / V_reservoir, so the coupling is
+// stable at any timestep when the reservoir is larger than the chambers it feeds together, as
+// Link demands.
+void StepWithReservoirs(const CompiledModel& model, const mjModel* m, mjData* d, const PassInputs& pass) {
+  const double h = m->opt.timestep;
+  const int n = static_cast<int>(model.reservoirs.size());
+  const int first_act = m->nu - m->na;
+  mjtNum* pressure = mj_stackAlloc(d, 2 * n);  // inside the caller's mjMARKSTACK
+  mjtNum* drawn = pressure + n;
+  for (int r = 0; r < n; ++r) {
+    const BoundReservoir& reservoir = model.reservoirs[r];
+    pressure[r] = d->act[reservoir.actuator - first_act] + reservoir.model.p_source;
+    drawn[r] = 0;
+  }
+  for (size_t c = 0; c < model.cylinders.size(); ++c) {
+    int r = model.supply[c];
+    if (r < 0) {
+      model.cylinders[c].Step(m, d, pass);
+    } else {
+      model.cylinders[c].Step(m, d, pass, &pressure[r], &drawn[r]);
+    }
+  }
+  for (int r = 0; r < n; ++r) {
+    const BoundReservoir& reservoir = model.reservoirs[r];
+    double end = ReservoirPressureStep(reservoir.model, pressure[r], drawn[r], h);
+    d->act_dot[reservoir.actuator - first_act] = (end - pressure[r]) / h;
+  }
+}
+
 // every cylinder's act_dot for this forward pass
 void StepPass(const CompiledModel& model, const mjModel* m, mjData* d) {
   PassInputs pass;
@@ -262,7 +453,11 @@ void StepPass(const CompiledModel& model, const mjModel* m, mjData* d) {
     PredictEndOfStepVelocity(m, d, velocity);
     pass.end_velocity = velocity;
   }
-  for (const Cylinder& c : model.cylinders) c.Step(m, d, pass);
+  if (model.reservoirs.empty()) {
+    for (const Cylinder& c : model.cylinders) c.Step(m, d, pass);
+  } else {
+    StepWithReservoirs(model, m, d, pass);
+  }
   mjFREESTACK;
 }
 
@@ -315,10 +510,10 @@ std::shared_ptr<const CompiledModel> Compiled(const mjModel* m, std::string* err
 
 // stores `model` in m and makes it the current decoding
 bool StoreModel(mjModel* m, std::shared_ptr<CompiledModel> model, std::string* error) {
-  if (kConfigSlot + PackedConfigSize() > ActuatorUserSize()) {
+  if (SupplySlot() + 1 > ActuatorUserSize() || kConfigSlot + PackedReservoirSize() > ActuatorUserSize()) {
     mju_error("pneumatic: the parameter table outgrew ActuatorUserSize(); raise it");
   }
-  if (!model->cylinders.empty() && m->nuser_actuator < ActuatorUserSize()) {
+  if ((!model->cylinders.empty() || !model->reservoirs.empty()) && m->nuser_actuator < ActuatorUserSize()) {
     *error = "the model stores each cylinder's parameters in its actuators' user data: add <size nuser_actuator=\"" +
              std::to_string(ActuatorUserSize()) + "\"/> to the MJCF (it has " + std::to_string(m->nuser_actuator) + ")";
     return false;
@@ -370,6 +565,31 @@ std::vector<CylinderInfo> Cylinders(const mjModel* m) {
     for (const Cylinder& c : model->cylinders) out.push_back(c.info());
   }
   return out;
+}
+
+std::vector<ReservoirInfo> Reservoirs(const mjModel* m) {
+  std::string ignored;
+  std::vector<ReservoirInfo> out;
+  if (auto model = m ? Compiled(m, &ignored) : nullptr) {
+    for (const BoundReservoir& r : model->reservoirs) {
+      ReservoirInfo info;
+      info.name = r.config.name;
+      info.actuator = r.actuator;
+      info.p_source = r.model.p_source;
+      info.volume = r.config.volume;
+      for (int c : r.cylinders) info.cylinders.push_back(model->cylinders[c].info().name);
+      out.push_back(info);
+    }
+  }
+  return out;
+}
+
+double ReservoirPressure(const mjModel* m, const mjData* d, const ReservoirInfo& r) {
+  return d->act[r.actuator - (m->nu - m->na)] + r.p_source;
+}
+
+void SetReservoirPressure(const mjModel* m, mjData* d, const ReservoirInfo& r, double pressure) {
+  d->act[r.actuator - (m->nu - m->na)] = pressure - r.p_source;
 }
 
 namespace {
@@ -440,7 +660,8 @@ bool SetParameters(mjModel* m, const std::string& cylinder,
   if (!bound) return false;
   std::vector<Cylinder> cylinders = model->cylinders;
   cylinders[index] = std::move(*bound);
-  return StoreModel(m, Finish(m, std::move(cylinders)), error);
+  std::unique_ptr<CompiledModel> changed = Finish(m, std::move(cylinders), model->reservoirs, error);
+  return changed && StoreModel(m, std::move(changed), error);
 }
 
 bool SetParameter(mjModel* m, const std::string& cylinder, const std::string& key, const std::string& value,

@@ -127,6 +127,26 @@ struct ParameterDoc {
 };
 const std::vector<ParameterDoc>& Parameters();
 
+// Supply reservoirs: a state of the model shared by the cylinders it feeds (plugin/README.md,
+// "Supply reservoirs"). MJCF: <text name="pneumatic_reservoir:<name>" data="volume=...
+// line_conductance=..."/>, an actuator "<name>.pressure" (dyntype="user", no force) and
+// supply=<name> in the text of each cylinder it feeds.
+struct ReservoirInfo {
+  std::string name;
+  int actuator = -1;       // "<name>.pressure": act = p - p_source (Pa)
+  double p_source = 0;     // Pa abs: the compressor behind the line, the fed cylinders' p_supply
+  double volume = 0;       // m^3
+  std::vector<std::string> cylinders;  // the cylinders it feeds
+};
+// The reservoirs of an attached model (empty if none or not attached).
+std::vector<ReservoirInfo> Reservoirs(const mjModel* m);
+// Absolute reservoir pressure (Pa) read from, or written to, d->act.
+double ReservoirPressure(const mjModel* m, const mjData* d, const ReservoirInfo& r);
+void SetReservoirPressure(const mjModel* m, mjData* d, const ReservoirInfo& r, double pressure);
+// The reservoir keys (scope "reservoir"), for documentation and tools. Kept apart from
+// Parameters(), whose every row is a key of a cylinder's text.
+const std::vector<ParameterDoc>& ReservoirParameters();
+
 }  // namespace pneumatic
 
 #endif  // PNEUMATIC_PNEUMATIC_H_

@@ -1,0 +1,105 @@
+#include "roles.h"
+
+#include <iterator>
+
+#include "valves.h"
+
+namespace pneumatic {
+namespace {
+
+bool Never(const CylinderConfig*) { return false; }
+bool Always(const CylinderConfig*) { return true; }
+bool OnOffValves(const CylinderConfig* c) { return c->valve == ValveKind::kOnOff && c->input == CommandInput::kValves; }
+bool OnOffStates(const CylinderConfig* c) { return c->valve == ValveKind::kOnOff && ValvesHaveState(*c); }
+bool Pwm(const CylinderConfig* c) { return c->valve == ValveKind::kOnOff && c->input == CommandInput::kPwm; }
+bool Proportional53(const CylinderConfig* c) { return c->valve == ValveKind::kProportional53; }
+bool SpoolLag(const CylinderConfig* c) { return c->valve == ValveKind::kProportional53 && ValvesHaveState(*c); }
+bool PerChamber(const CylinderConfig* c) { return c->valve == ValveKind::kProportionalPerChamber; }
+bool Friction(const CylinderConfig* c) { return c->coulomb_friction.has_value(); }
+
+constexpr char kCommanded[] = "this valve arrangement is commanded through its ctrl";
+constexpr char kOnOffRequired[] =
+    "valve=onoff with input=valves (command); delay_open or delay_close > 0 (armature state)";
+constexpr char kArmature[] =
+    "on/off valve command (0 closed, 1 open); with delays its act is the armature position, the project's own model";
+
+const RoleSpec kRoles[] = {
+    // cylinder: chambers
+    {"P", RoleOwner::kCylinder, Role::kChamber, 0, Never, Always, Never, "every cylinder", "Pa",
+     "p = p_atm (act = p - p_atm, gauge)", "cap-side chamber pressure; force +A_P act (fixed gain)",
+     "each cylinder needs actuators '{}.P' and '{}.N'"},
+    {"N", RoleOwner::kCylinder, Role::kChamber, 1, Never, Always, Never, "every cylinder", "Pa",
+     "p = p_atm (act = p - p_atm, gauge)", "rod-side chamber pressure; force -A_N act (fixed gain)",
+     "each cylinder needs actuators '{}.P' and '{}.N'"},
+    // cylinder: valve commands, and the valve states their act holds
+    {"u1", RoleOwner::kCylinder, Role::kCommand, 0, OnOffValves, OnOffStates, Never, kOnOffRequired, "1 (ctrl), 1 (act)",
+     "closed (armature at rest)", kArmature, kCommanded},
+    {"u2", RoleOwner::kCylinder, Role::kCommand, 1, OnOffValves, OnOffStates, Never, kOnOffRequired, "1 (ctrl), 1 (act)",
+     "closed (armature at rest)", kArmature, kCommanded},
+    {"u3", RoleOwner::kCylinder, Role::kCommand, 2, OnOffValves, OnOffStates, Never, kOnOffRequired, "1 (ctrl), 1 (act)",
+     "closed (armature at rest)", kArmature, kCommanded},
+    {"u4", RoleOwner::kCylinder, Role::kCommand, 3, OnOffValves, OnOffStates, Never, kOnOffRequired, "1 (ctrl), 1 (act)",
+     "closed (armature at rest)", kArmature, kCommanded},
+    {"duty", RoleOwner::kCylinder, Role::kCommand, 0, Pwm, Never, Never, "valve=onoff with input=pwm", "1 (ctrl)", "",
+     "PWM duty in [-1, 1] (paper 003 eqs. 12-13)", kCommanded},
+    {"u", RoleOwner::kCylinder, Role::kCommand, 0, Proportional53, SpoolLag, Never,
+     "valve=proportional_5_3 (command); spool_time_constant > 0 (spool state)", "V (ctrl), m (act)",
+     "spool centred (x_v = 0)", "5/3 valve voltage; with a lag its act is the spool position x_v (paper 001 eq. 1)",
+     kCommanded},
+    {"uP", RoleOwner::kCylinder, Role::kCommand, 0, PerChamber, Never, Never, "valve=proportional_per_chamber",
+     "V (ctrl)", "", "voltage of chamber P's valve (paper 000 eq. 3)", kCommanded},
+    {"uN", RoleOwner::kCylinder, Role::kCommand, 1, PerChamber, Never, Never, "valve=proportional_per_chamber",
+     "V (ctrl)", "", "voltage of chamber N's valve (paper 000 eq. 3)", kCommanded},
+    // cylinder: forces
+    {"friction", RoleOwner::kCylinder, Role::kFriction, 0, Never, Never, Friction, "coulomb_friction", "N (N m)", "",
+     "seal friction as bias, below the transmission's frictionloss (the static level)",
+     "coulomb_friction is applied through it"},
+    // supply reservoir
+    {"pressure", RoleOwner::kReservoir, Role::kReservoir, 0, Never, Always, Never, "every reservoir", "Pa",
+     "p = p_supply of the cylinders it feeds, a charged reservoir (act = p - p_supply)",
+     "reservoir pressure, stepped with the chambers it feeds; applies no force (fixed gain 0)",
+     "its act is the reservoir's pressure"},
+};
+
+}  // namespace
+
+const RoleSpec* RoleTable(int* count) {
+  *count = static_cast<int>(std::size(kRoles));
+  return kRoles;
+}
+
+const RoleSpec* FindRole(RoleOwner owner, const std::string& suffix) {
+  for (const RoleSpec& r : kRoles) {
+    if (r.owner == owner && suffix == r.suffix) return &r;
+  }
+  return nullptr;
+}
+
+bool RoleRequired(const RoleSpec& r, const CylinderConfig* c) {
+  if (r.owner == RoleOwner::kCylinder && !c) return false;
+  return r.command(c) || r.state(c) || r.bias(c);
+}
+
+std::string StateActuatorProblem(const mjModel* m, int id, const RoleSpec& r) {
+  if (m->actuator_dyntype[id] != mjDYN_USER) {
+    return std::string("needs dyntype=\"user\": its act is the ") + r.meaning + " (act = 0: " + r.initial + ")";
+  }
+  bool zero_gain = m->actuator_gaintype[id] == mjGAIN_USER ||
+                   (m->actuator_gaintype[id] == mjGAIN_FIXED && m->actuator_gainprm[id * mjNGAIN] == 0);
+  if (!zero_gain || m->actuator_biastype[id] != mjBIAS_NONE) {
+    return "applies no force: use gaintype=\"user\" (or gainprm=\"0\") and biastype=\"none\"";
+  }
+  if (m->actuator_actlimited[id]) return "must not be actlimited: MuJoCo would clip the state";
+  return "";
+}
+
+std::string RoleKindText(const RoleSpec& r) {
+  bool command = r.command != Never, state = r.state != Never, bias = r.bias != Never;
+  if (r.role == Role::kChamber) return "state + force";
+  if (bias) return "force";
+  if (command && state) return "command (+ state)";
+  if (command) return "command";
+  return state ? "state" : "";
+}
+
+}  // namespace pneumatic
