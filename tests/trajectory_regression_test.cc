@@ -120,7 +120,7 @@ TEST_P(Trajectory, MatchesItsGolden) {
 }
 
 INSTANTIATE_TEST_SUITE_P(ShippedModels, Trajectory,
-                         ::testing::Values("rig_onoff", "rig_proportional", "rig_per_chamber"),
+                         ::testing::Values("rig_onoff", "rig_proportional", "rig_per_chamber", "humanoid_pneumatic"),
                          [](const ::testing::TestParamInfo<const char*>& info) { return std::string(info.param); });
 
 // the comparison fails when it should: rig C with 5 % more dead volume in chamber P
