@@ -6,7 +6,7 @@
 //   pneumo generate MODEL.xml --duration 100 --seed 1 --out LOG.csv   closed-loop identification log (rig C)
 //   pneumo identify MODEL.xml LOG.csv --out PARAMS.json --heldout LOG2.csv   fit paper 000's model and physical parameters
 //   pneumo render MODEL.xml --out frame.png [--log LOG.csv --time T]   a picture, off screen (OSMesa)
-//   pneumo reproduce hodgson2012|laib2021 [--out DIR]                  a paper's experiment rerun in simulation
+//   pneumo reproduce karpenko2006|hodgson2012|laib2021 [--out DIR]                  a paper's experiment rerun in simulation
 //   pneumo info MODEL.xml                                       cylinders and their signals
 //   pneumo params [--markdown]                                  the MJCF parameter table
 #include <chrono>
@@ -25,6 +25,7 @@
 #include "pneumatic/pneumatic.h"
 #include "render_command.h"
 #include "reproduce_hodgson2012.h"
+#include "reproduce_karpenko2006.h"
 #include "reproduce_laib2021.h"
 #include "rollout.h"
 #include "rollout_command.h"
@@ -277,10 +278,11 @@ int main(int argc, char** argv) {
   CLI::App* reproduce = app.add_subcommand(
       "reproduce", "rerun a paper's experiment on its rig and print its headline figures next to the paper's (JSON)");
   reproduce->add_option("name", reproduce_name,
-                        "the paper: hodgson2012 (paper 002's sliding controllers on rig A) or laib2021 (paper 003's "
-                        "averaged PWM model and sliding-mode controller with observers on rig A)")
+                        "the paper: karpenko2006 (paper 001's nonlinear PI on rig B), hodgson2012 (paper 002's sliding "
+                        "controllers on rig A) or laib2021 (paper 003's averaged PWM model and sliding-mode controller "
+                        "with observers on rig A)")
       ->required()
-      ->check(CLI::IsMember({"hodgson2012", "laib2021"}));
+      ->check(CLI::IsMember({"karpenko2006", "hodgson2012", "laib2021"}));
   reproduce->add_option("--out", reproduce_out, "directory for the JSON, the logs and the comparison plots (PNG)");
 
   CLI::App* info = app.add_subcommand("info", "list a model's cylinders and their log signals");
@@ -324,9 +326,10 @@ int main(int argc, char** argv) {
   }
     if (*reproduce) {
     std::string error;
-    nlohmann::json result = reproduce_name == "laib2021"
-                                ? pneumatic::ReproduceLaib2021(PNEUMATIC_MODELS_DIR, reproduce_out, &error)
-                                : pneumatic::ReproduceHodgson2012(PNEUMATIC_MODELS_DIR, reproduce_out, &error);
+    nlohmann::json result =
+        reproduce_name == "laib2021"       ? pneumatic::ReproduceLaib2021(PNEUMATIC_MODELS_DIR, reproduce_out, &error)
+        : reproduce_name == "karpenko2006" ? pneumatic::ReproduceKarpenko2006(PNEUMATIC_MODELS_DIR, reproduce_out, &error)
+                                           : pneumatic::ReproduceHodgson2012(PNEUMATIC_MODELS_DIR, reproduce_out, &error);
     if (result.is_null()) return Fail("reproduce " + reproduce_name + ": " + error);
     std::printf("%s\n", result.dump(2).c_str());
     return 0;
