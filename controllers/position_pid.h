@@ -32,6 +32,7 @@ struct ValveDrive {
   double centre = 5;                // V: per chamber, (U_c + U_r)/2
   double u_max = 5;                 // V: 5/3 valve saturation
   double command_min = 0, command_max = 10;  // V: per chamber, the actuators' ctrlrange
+  double p_supply = 0, p_exhaust = 0;        // Pa abs: the cylinder's supply and exhaust pressures
 };
 
 struct PositionPidGains {

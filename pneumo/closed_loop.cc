@@ -21,6 +21,7 @@ std::string DriveOf(const mjModel* m, const CylinderInfo& c, ValveDrive* drive) 
   std::optional<double> stroke = GetParameter(m, c.name, "stroke", &error);
   if (!valve || !stroke) return error;
   drive->half_stroke = *stroke / 2;
+  drive->p_supply = c.p_supply, drive->p_exhaust = c.p_exhaust;
   if (*valve == "proportional_per_chamber") {
     drive->kind = ValveDrive::Kind::kPerChamber;
     std::optional<double> u_c = GetParameter(m, c.name, "P.u_supply_seal", &error);

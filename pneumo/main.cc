@@ -178,12 +178,16 @@ int main(int argc, char** argv) {
                     "reset pistons to the log's x and v at every row: simulate pressures only (paper 000 V.D)");
   pneumatic::ClosedLoopCommandOptions closed;
   rollout->add_option("--controller", closed.controller,
-                      "closed loop: 'pid' (a PID on every cylinder's position, controllers/position_pid.h) or 'none' "
-                      "(valves at rest)")
-      ->check(CLI::IsMember({"pid", "none"}));
+                      "closed loop: pid (a PID on every cylinder's position, any valve), none (valves at rest), "
+                      "position_stiffness (per-chamber valves: position and co-contraction, paper 000's set-up), "
+                      "sliding3 or sliding7 (paper 002, on/off valves), karpenko (paper 001's PI, a 5/3 valve), "
+                      "laib (paper 003's sliding-mode controller with observers, on/off valves on PWM)")
+      ->check(CLI::IsMember({"pid", "none", "position_stiffness", "sliding3", "sliding7", "karpenko", "laib"}));
   rollout->add_option("--controller-config", closed.controller_config_path,
-                      "JSON of the PID's gains: kp, ki, kd (on the error over the half stroke), co_contraction and "
-                      "swing (V), onoff_band; \"cylinders\": {NAME: {...}} per cylinder");
+                      "JSON of the controller's keys. pid: kp, ki, kd (on the error over the half stroke), "
+                      "co_contraction and swing (V), onoff_band, \"cylinders\": {NAME: {...}}; the others: a flat "
+                      "object of numbers, keys and units in their headers (controllers/*.h); an unknown or "
+                      "out-of-range key is refused, named");
   rollout->add_option("--reference", closed.reference_path, "log with <cylinder>.ref columns: the targets (default: hold the initial pose)");
   rollout->add_option("--control-rate", closed.control_rate, "controller ticks per second (commands held between)")
       ->capture_default_str();

@@ -13,6 +13,12 @@
 
 #include "output_file.h"
 
+// Mesa's OSMesa keeps a few hundred bytes of its own state after OSMesaDestroyContext (measured
+// under LeakSanitizer: 640 bytes per process, every allocation made inside libOSMesa). Those leaks
+// are Mesa's, not ours: suppress them, and only those, in any program that links the renderer
+// (LeakSanitizer reads this hook; other builds never call it).
+extern "C" const char* __lsan_default_suppressions() { return "leak:libOSMesa.so\n"; }
+
 namespace pneumatic {
 namespace {
 

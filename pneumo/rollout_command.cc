@@ -14,6 +14,10 @@
 #include <nlohmann/json.hpp>
 
 #include "closed_loop.h"
+#include "karpenko_pid.h"
+#include "laib_smc.h"
+#include "position_stiffness.h"
+#include "sliding_mode.h"
 #include "log_csv.h"
 #include "output_file.h"
 #include "pneumatic/pneumatic.h"
@@ -74,6 +78,65 @@ std::string ReadControllerConfig(const std::string& path, ClosedLoopOptions* opt
       if (std::string e = ReadGains(object, path + ": cylinders." + name, &gains); !e.empty()) return e;
       options->cylinder_gains[name] = gains;
     }
+  }
+  return "";
+}
+
+// The papers' controllers take "key=value ..." configurations (their key tables name units and
+// ranges); --controller-config gives them as a flat JSON object of numbers.
+std::string JsonToKeyValues(const std::string& path, std::string* text) {
+  json config;
+  if (std::string e = ReadJson(path, &config); !e.empty()) return e;
+  if (!config.is_object()) return path + ": expected a JSON object of key: number";
+  for (const auto& [key, value] : config.items()) {
+    if (!value.is_number()) return path + ": key '" + key + "' must be a number";
+    char number[64];
+    std::snprintf(number, sizeof(number), "%.17g", value.get<double>());
+    *text += key + "=" + number + " ";
+  }
+  return "";
+}
+
+// the factory of one of the papers' controllers, its configuration read now (errors name the key)
+std::string PaperController(const ClosedLoopCommandOptions& options, ClosedLoopOptions* out) {
+  std::string text;
+  if (!options.controller_config_path.empty()) {
+    if (std::string e = JsonToKeyValues(options.controller_config_path, &text); !e.empty()) return e;
+  }
+  const std::string& name = options.controller;
+  const std::string where = options.controller_config_path.empty() ? name : options.controller_config_path;
+  std::string error;
+  out->controller = "custom";
+  if (name == "sliding3" || name == "sliding7") {
+    SlidingModeParams params;
+    params.modes = name == "sliding3" ? 3 : 7;
+    if (!text.empty() && !ParseSlidingModeConfig(text, &params, &error)) return where + ": " + error;
+    out->make_controller = [params](const std::vector<ValveDrive>& drives, double period, std::string* e) {
+      std::vector<ValveDrive> copy = drives;
+      SlidingModeParams p = params;
+      if (!drives.empty()) p.p_supply = drives[0].p_supply, p.p_exhaust = drives[0].p_exhaust;
+      return std::unique_ptr<Controller>(SlidingModeController::Create(copy, p, period, e));
+    };
+  } else if (name == "karpenko") {
+    KarpenkoPidParams params;
+    if (!text.empty() && !ParseKarpenkoPidConfig(text, &params, &error)) return where + ": " + error;
+    out->make_controller = [params](const std::vector<ValveDrive>& drives, double period, std::string* e) {
+      return std::unique_ptr<Controller>(KarpenkoPid::Create(drives, params, period, e));
+    };
+  } else if (name == "laib") {
+    LaibSmcParams params;
+    if (!text.empty() && !ParseLaibSmcConfig(text, &params, &error)) return where + ": " + error;
+    out->make_controller = [params](const std::vector<ValveDrive>& drives, double period, std::string* e) {
+      return std::unique_ptr<Controller>(LaibSmcController::Create(drives, params, period, e));
+    };
+  } else if (name == "position_stiffness") {
+    PositionStiffnessParams params;
+    if (std::string e = ParsePositionStiffnessConfig(text, &params); !e.empty()) return where + ": " + e;
+    out->make_controller = [params](const std::vector<ValveDrive>& drives, double period, std::string* e) {
+      return std::unique_ptr<Controller>(PositionStiffness::Create(drives, params, period, e));
+    };
+  } else {
+    return "unknown controller '" + name + "'";
   }
   return "";
 }
@@ -169,8 +232,12 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
   base.control_rate = options.control_rate;
   base.noise_pressure = options.noise_pressure;
   base.noise_position = options.noise_position;
-  if (!options.controller_config_path.empty()) {
-    if (std::string e = ReadControllerConfig(options.controller_config_path, &base); !e.empty()) return Fail(e);
+  if (options.controller == "pid" || options.controller == "none") {
+    if (!options.controller_config_path.empty()) {
+      if (std::string e = ReadControllerConfig(options.controller_config_path, &base); !e.empty()) return Fail(e);
+    }
+  } else if (std::string e = PaperController(options, &base); !e.empty()) {
+    return Fail(e);
   }
   std::optional<log::Log> reference;
   if (!options.reference_path.empty()) {

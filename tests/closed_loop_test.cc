@@ -15,6 +15,7 @@
 
 #include "closed_loop.h"
 #include "position_pid.h"
+#include "position_stiffness.h"
 #include "test_util.h"
 
 namespace pneumatic {
@@ -146,6 +147,46 @@ TEST(ClosedLoop, CustomControllersPlugInAndMustWriteTheValvesSignals) {
   EXPECT_THAT(RunClosedLoop(model.m(), options).error, HasSubstr("are not its valve's signals"));
 }
 
+// paper 000's set-up: position and co-contraction driven separately. At 1 kHz on rig C, a step of
+// the position to -20 mm under a mean chamber pressure of 30 % and 70 % of the way from exhaust to
+// supply: both reached (0.5 mm; 1 % of supply - exhaust) over the last second of 4 s
+TEST(PositionStiffness, HoldsPositionAndMeanPressureSeparately) {
+  AttachedModel model;
+  ASSERT_TRUE(model.Load(ShippedModel("rig_per_chamber.xml"), true)) << model.error();
+  const log::Log reference = StepReference(-0.02);
+  for (double mean : {0.3, 0.7}) {
+    PositionStiffnessParams params;
+    ASSERT_EQ(ParsePositionStiffnessConfig("mean_pressure=" + std::to_string(mean), &params), "");
+    ClosedLoopOptions options;
+    options.duration = 4;
+    options.control_rate = 1000;
+    options.reference = &reference;
+    options.controller = "custom";
+    options.make_controller = [params](const std::vector<ValveDrive>& drives, double period, std::string* error) {
+      return std::unique_ptr<Controller>(PositionStiffness::Create(drives, params, period, error));
+    };
+    ClosedLoopResult result = RunClosedLoop(model.m(), options);
+    ASSERT_TRUE(result.log) << result.error;
+    const log::Log& log = *result.log;
+    const auto& x = log.values[static_cast<size_t>(log.FindColumn("cyl", "x"))];
+    const auto& p_P = log.values[static_cast<size_t>(log.FindColumn("cyl", "p_P"))];
+    const auto& p_N = log.values[static_cast<size_t>(log.FindColumn("cyl", "p_N"))];
+    for (size_t row = log.rows() - 1000; row < log.rows(); ++row) {
+      ASSERT_NEAR(x[row], -0.02, 5e-4) << "mean " << mean << ", t = " << log.time[row];
+      ASSERT_NEAR(((p_P[row] + p_N[row]) / 2 - 1e5) / 5.2e5, mean, 0.01) << "mean " << mean << ", t = " << log.time[row];
+    }
+  }
+  PositionStiffnessParams params;
+  EXPECT_THAT(ParsePositionStiffnessConfig("mean_pressure=1.5", &params), HasSubstr("key 'mean_pressure'"));
+  EXPECT_THAT(ParsePositionStiffnessConfig("stifness_kp=1", &params), HasSubstr("unknown key 'stifness_kp'"));
+  EXPECT_EQ(params.mean_pressure, 0.5);
+  std::string error;
+  ValveDrive onoff;
+  onoff.kind = ValveDrive::Kind::kOnOff;
+  EXPECT_EQ(PositionStiffness::Create({onoff}, params, 0.001, &error), nullptr);
+  EXPECT_THAT(error, HasSubstr("one proportional valve per chamber"));
+}
+
 std::string Quote(const std::string& s) { return "'" + s + "'"; }
 
 int Pneumo(const std::string& args, std::string* err) {
@@ -196,6 +237,20 @@ TEST(ClosedLoopCommand, JobsDoNotChangeTheLogs) {
                    &err),
             1);
   EXPECT_THAT(err, HasSubstr("--reference needs --controller"));
+  // the papers' controllers from the command line: a config key they do not know is named
+  std::ofstream((dir / "sliding.json").string()) << R"({"omega": 100, "omegaa": 3})";
+  EXPECT_EQ(Pneumo("rollout " + Quote(ShippedModel("rig_onoff.xml")) + " --controller sliding7 --controller-config " +
+                       Quote((dir / "sliding.json").string()) + " --control-rate 500 --duration 0.5 --out " +
+                       Quote((dir / "x.csv").string()),
+                   &err),
+            1);
+  EXPECT_THAT(err, HasSubstr("key 'omegaa'"));
+  // and one runs on its rig
+  EXPECT_EQ(Pneumo("rollout " + Quote(ShippedModel("rig_onoff.xml")) +
+                       " --controller sliding7 --control-rate 500 --duration 0.5 --out " + Quote((dir / "x.csv").string()),
+                   &err),
+            0)
+      << err;
   fs::remove_all(dir);
 }
 
