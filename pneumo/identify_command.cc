@@ -18,6 +18,7 @@
 #include "log_csv.h"
 #include "model_file.h"
 #include "output_file.h"
+#include "report_files.h"
 #include "pneumatic/pneumatic.h"
 #include "rollout.h"
 
@@ -266,16 +267,7 @@ std::string WriteIdentifiedModel(const IdentifyOptions& options, const mjModel* 
 
 // the drift PNG, drawn by scripts/plot_drift.py (matplotlib) from PARAMS.json
 std::string PlotDrift(const std::string& json_path, const std::string& png_path) {
-  auto quote = [](const std::string& s) {
-    std::string q = "'";
-    for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-    return q + "'";
-  };
-  // Debian's python3, which python3-matplotlib serves (a python3 earlier on PATH, e.g. pyenv's, may lack it)
-  const std::string command = "/usr/bin/python3 " + quote(std::string(PNEUMATIC_SCRIPTS_DIR) + "/plot_drift.py") + " " +
-                              quote(json_path) + " " + quote(png_path);
-  int status = std::system(command.c_str());
-  if (status != 0) return png_path + ": the drift plot failed (" + command + ")";
+  if (std::string e = RunPlotScript("plot_drift.py", {json_path, png_path}); !e.empty()) return png_path + ": " + e;
   return "";
 }
 

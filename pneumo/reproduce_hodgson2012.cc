@@ -1,5 +1,7 @@
 #include "reproduce_hodgson2012.h"
 
+#include "report_files.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -135,12 +137,6 @@ nlohmann::json Compare(const std::string& quantity, double paper, double simulat
     c["relative_difference_pct"] = Round(100 * (simulated - paper) / paper, 1);
   }
   return c;
-}
-
-std::string Quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
 }
 
 }  // namespace
@@ -433,16 +429,7 @@ nlohmann::json ReproduceHodgson2012(const std::string& models_dir, const std::st
       {"rms_definition", "RMS over the judged window's ticks of y_d - x, mm"}};
 
   if (!out_dir.empty()) {
-    const std::string json_path = out_dir + "/hodgson2012.json";
-    {
-      std::ofstream file(json_path);
-      file << report.dump(2) << "\n";
-      if (!file) return fail(json_path + ": writing failed");
-    }
-    // Debian's python3, which python3-matplotlib serves (a python3 earlier on PATH may lack it)
-    const std::string command = "/usr/bin/python3 " + Quote(std::string(PNEUMATIC_SCRIPTS_DIR) + "/plot_hodgson2012.py") +
-                                " " + Quote(out_dir);
-    if (std::system(command.c_str()) != 0) return fail(out_dir + ": the plots failed (" + command + ")");
+    if (std::string e = WriteReportAndPlots(out_dir, "hodgson2012", report); !e.empty()) return fail(e);
   }
   return report;
 }

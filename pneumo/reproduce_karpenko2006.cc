@@ -1,5 +1,7 @@
 #include "reproduce_karpenko2006.h"
 
+#include "report_files.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -62,12 +64,6 @@ const std::vector<double>& Column(const log::Log& log, const char* signal) {
   static const std::vector<double> empty;
   const int c = log.FindColumn("cyl", signal);
   return c < 0 ? empty : log.values[static_cast<size_t>(c)];
-}
-
-std::string Quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
 }
 
 }  // namespace
@@ -467,15 +463,7 @@ nlohmann::json ReproduceKarpenko2006(const std::string& models_dir, const std::s
         {"deadtime_s", "from the first move of the reference until the piston has moved 1 mm"}}}};
 
   if (!out_dir.empty()) {
-    const std::string json_path = out_dir + "/karpenko2006.json";
-    {
-      std::ofstream file(json_path);
-      file << report.dump(2) << "\n";
-      if (!file) return fail(json_path + ": writing failed");
-    }
-    const std::string command = "/usr/bin/python3 " + Quote(std::string(PNEUMATIC_SCRIPTS_DIR) + "/plot_karpenko2006.py") +
-                                " " + Quote(out_dir);
-    if (std::system(command.c_str()) != 0) return fail(out_dir + ": the plots failed (" + command + ")");
+    if (std::string e = WriteReportAndPlots(out_dir, "karpenko2006", report); !e.empty()) return fail(e);
   }
   return report;
 }

@@ -1,5 +1,7 @@
 #include "reproduce_laib2021.h"
 
+#include "report_files.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -43,12 +45,6 @@ std::string Format(double v, int digits = 3) {
 double Round(double v, int decimals = 3) {
   const double scale = std::pow(10.0, decimals);
   return std::round(v * scale) / scale;
-}
-
-std::string Quote(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
 }
 
 // records the controller's estimate at every tick
@@ -418,15 +414,7 @@ nlohmann::json ReproduceLaib2021(const std::string& models_dir, const std::strin
                      "L = (5, 2, 15 | 20); the model (15) on rig A's parameters (controllers/laib_smc.h)"}};
 
   if (!out_dir.empty()) {
-    const std::string json_path = out_dir + "/laib2021.json";
-    {
-      std::ofstream file(json_path);
-      file << report.dump(2) << "\n";
-      if (!file) return fail(json_path + ": writing failed");
-    }
-    const std::string command = "/usr/bin/python3 " + Quote(std::string(PNEUMATIC_SCRIPTS_DIR) + "/plot_laib2021.py") +
-                                " " + Quote(out_dir);
-    if (std::system(command.c_str()) != 0) return fail(out_dir + ": the plots failed (" + command + ")");
+    if (std::string e = WriteReportAndPlots(out_dir, "laib2021", report); !e.empty()) return fail(e);
   }
   return report;
 }
