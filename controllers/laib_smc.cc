@@ -1,5 +1,7 @@
 #include "laib_smc.h"
 
+#include "key_value_text.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
@@ -144,23 +146,17 @@ bool SetLaibSmcParameter(LaibSmcParams* params, const std::string& key, double v
 
 bool ParseLaibSmcConfig(const std::string& text, LaibSmcParams* params, std::string* error) {
   LaibSmcParams out = *params;
-  std::string spaced = text;
-  for (char& c : spaced) c = c == ',' || c == '\t' || c == '\n' || c == '\r' ? ' ' : c;
-  std::istringstream in(spaced);
-  std::string pair;
-  while (in >> pair) {
-    const size_t eq = pair.find('=');
-    const std::string key = pair.substr(0, eq);
-    if (eq == std::string::npos || eq + 1 == pair.size()) {
-      if (error) *error = KeyError(key, "expected key=value, got '" + pair + "'");
-      return false;
-    }
-    std::string value = pair.substr(eq + 1);
+  std::vector<std::pair<std::string, std::string>> pairs;
+  std::string bad;
+  if (!SplitKeyValues(text, &pairs, &bad)) {
+    if (error) *error = KeyError(bad.substr(0, bad.find('=')), "expected key=value, got '" + bad + "'");
+    return false;
+  }
+  for (auto& [key, value] : pairs) {
     if (key == "observer" && value == "high_gain") value = "0";
     if (key == "observer" && value == "sliding") value = "1";
-    char* end = nullptr;
-    const double number = std::strtod(value.c_str(), &end);
-    if (end != value.c_str() + value.size()) {
+    double number = 0;
+    if (!ParseNumber(value, &number)) {
       if (error) *error = KeyError(key, "'" + value + "' is not a number");
       return false;
     }

@@ -1,5 +1,7 @@
 #include "sliding_mode.h"
 
+#include "key_value_text.h"
+
 #include <cmath>
 #include <cstdlib>
 #include <limits>
@@ -107,21 +109,15 @@ bool SetSlidingModeParameter(SlidingModeParams* params, const std::string& key, 
 
 bool ParseSlidingModeConfig(const std::string& text, SlidingModeParams* params, std::string* error) {
   SlidingModeParams out = *params;
-  std::string spaced = text;
-  for (char& c : spaced) c = c == ',' || c == '\t' || c == '\n' || c == '\r' ? ' ' : c;
-  std::istringstream in(spaced);
-  std::string pair;
-  while (in >> pair) {
-    const size_t eq = pair.find('=');
-    const std::string key = pair.substr(0, eq);
-    if (eq == std::string::npos || eq + 1 == pair.size()) {
-      if (error) *error = KeyError(key, "expected key=value, got '" + pair + "'");
-      return false;
-    }
-    const std::string value = pair.substr(eq + 1);
-    char* end = nullptr;
-    const double number = std::strtod(value.c_str(), &end);
-    if (end != value.c_str() + value.size()) {
+  std::vector<std::pair<std::string, std::string>> pairs;
+  std::string bad;
+  if (!SplitKeyValues(text, &pairs, &bad)) {
+    if (error) *error = KeyError(bad.substr(0, bad.find('=')), "expected key=value, got '" + bad + "'");
+    return false;
+  }
+  for (auto& [key, value] : pairs) {
+    double number = 0;
+    if (!ParseNumber(value, &number)) {
       if (error) *error = KeyError(key, "'" + value + "' is not a number");
       return false;
     }
