@@ -78,6 +78,20 @@ class Reference {
   int column_;
 };
 
+// the mjData arrays a closed-loop run carries from one tick to the next (ClosedLoopState::mujoco)
+std::vector<std::pair<mjtNum*, int>> CarriedArrays(const mjModel* m, mjData* d) {
+  return {{&d->time, 1},
+          {d->qpos, m->nq},
+          {d->qvel, m->nv},
+          {d->act, m->na},
+          {d->ctrl, m->nu},
+          {d->qacc_warmstart, m->nv},
+          {d->qfrc_applied, m->nv},
+          {d->xfrc_applied, 6 * m->nbody},
+          {d->actuator_length, m->nu},
+          {d->actuator_velocity, m->nu}};
+}
+
 struct Channel {
   CylinderInfo info;
   ValveDrive drive;
@@ -137,6 +151,20 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
   if (!d) return fail("mj_makeData failed");
   if (m->nkey > 0) mj_resetDataKeyframe(m, d.get(), 0);
   mj_forward(m, d.get());
+  if (options.resume) {
+    // the state as the interrupted run left it, after its last mj_step (no forward pass since)
+    size_t size = 0;
+    for (const auto& [array, n] : CarriedArrays(m, d.get())) size += static_cast<size_t>(n);
+    if (options.resume->mujoco.size() != size || options.resume->hold.size() != cylinders.size() ||
+        options.resume->noise.size() != cylinders.size()) {
+      return fail("the state to resume from is not one of this model's runs");
+    }
+    const double* from = options.resume->mujoco.data();
+    for (const auto& [array, n] : CarriedArrays(m, d.get())) {
+      std::copy(from, from + n, array);
+      from += n;
+    }
+  }
 
   // the channels and the log's columns: every cylinder's commands, then its measured signals
   log::Log out;
@@ -149,7 +177,8 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
     Channel ch{cylinders[i], {}, {nullptr, -1}, 0, Stream(options.seed, i, kSensorNoise), {}};
     if (std::string e = DriveOf(m, ch.info, &ch.drive); !e.empty()) return fail(e);
     if (options.reference) ch.reference = Reference(options.reference, options.reference->FindColumn(ch.info.name, "ref"));
-    ch.hold = PistonPosition(m, d.get(), ch.info);
+    ch.hold = options.resume ? options.resume->hold[i] : PistonPosition(m, d.get(), ch.info);
+    if (options.resume && !ch.noise.Load(options.resume->noise[i])) return fail("the state's noise stream is not one");
     for (const auto& [signal, value] : RestCommands(ch.drive)) {
       int actuator = -1;
       for (const auto& [s, id] : ch.info.command_actuators) actuator = s == signal ? id : actuator;
@@ -178,6 +207,9 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
     if (std::fabs(controller->Period() - period) > 1e-12 * period) {
       return fail("the controller's period differs from the control rate's");
     }
+  }
+  if (options.resume && controller && !controller->SetState(options.resume->controller)) {
+    return fail("the state's controller state is not this controller's");
   }
 
   ClosedLoopSummary& summary = result.summary;
@@ -272,6 +304,13 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
       summary.warnings.push_back("MuJoCo warning " + std::to_string(w) + " raised " +
                                  std::to_string(d->warning[w].number) + " times");
     }
+  }
+  ClosedLoopState& state = result.final_state;
+  for (const auto& [array, n] : CarriedArrays(m, d.get())) state.mujoco.insert(state.mujoco.end(), array, array + n);
+  if (controller) state.controller = controller->State();
+  for (const Channel& ch : channels) {
+    state.hold.push_back(ch.hold);
+    state.noise.push_back(ch.noise.Save());
   }
   result.log = std::move(out);
   return result;

@@ -27,6 +27,18 @@
 
 namespace pneumatic {
 
+// Everything a closed-loop run needs to continue where it stopped: resuming from it (options.resume)
+// gives the rows the uninterrupted run would have given, bit for bit.
+struct ClosedLoopState {
+  // mjData: time, qpos, qvel, act, ctrl, qacc_warmstart (the constraint solver's start),
+  // qfrc_applied, xfrc_applied, and the actuator lengths and velocities the next tick measures
+  // (mj_step leaves them as its forward pass computed them, at the start of the step)
+  std::vector<double> mujoco;
+  std::vector<double> controller;  // Controller::State()
+  std::vector<double> hold;        // each cylinder's target when it has no reference
+  std::vector<std::string> noise;  // each cylinder's sensor-noise stream
+};
+
 struct ClosedLoopOptions {
   double duration = 0;        // s, > 0
   double control_rate = 100;  // Hz: paper 000's loop
@@ -47,6 +59,9 @@ struct ClosedLoopOptions {
   double noise_position = 0;  // m or rad: on the measured x
   // called now and then with the fraction done (0..1), for a progress display
   std::function<void(double)> progress;
+  // continue a run from its final_state instead of the model's initial state (same model and
+  // options); `duration` is then the time to add
+  const ClosedLoopState* resume = nullptr;
   // called with the state before the first step and after every step (e.g. to render frames);
   // a non-empty return ends the run with that error
   std::function<std::string(const mjData*)> observer;
@@ -69,6 +84,7 @@ struct ClosedLoopSummary {
 struct ClosedLoopResult {
   std::optional<log::Log> log;
   ClosedLoopSummary summary;
+  ClosedLoopState final_state;  // to resume from
   std::string error;
 };
 

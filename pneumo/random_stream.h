@@ -6,6 +6,8 @@
 #include <cmath>
 #include <cstdint>
 #include <random>
+#include <sstream>
+#include <string>
 
 namespace pneumatic {
 
@@ -18,6 +20,19 @@ class Stream {
       : engine_(Mix(Mix(Mix(seed) ^ cylinder) ^ purpose)) {}
   double Uniform() { return static_cast<double>(engine_() >> 11) * 0x1.0p-53; }  // [0, 1)
   double Uniform(double lo, double hi) { return lo + (hi - lo) * Uniform(); }
+  // the stream's whole state as text, and back (false, unchanged, if the text is not one)
+  std::string Save() const {
+    std::ostringstream out;
+    out << engine_;
+    return out.str();
+  }
+  bool Load(const std::string& text) {
+    std::istringstream in(text);
+    std::mt19937_64 engine;
+    if (!(in >> engine)) return false;
+    engine_ = engine;
+    return true;
+  }
   double Gaussian() {  // Box-Muller, one draw per call
     double u1 = 1 - Uniform(), u2 = Uniform();
     return std::sqrt(-2 * std::log(u1)) * std::cos(2 * 3.14159265358979323846 * u2);
