@@ -4,6 +4,7 @@
 #define PNEUMATIC_CONTROLLERS_KEY_VALUE_TEXT_H_
 
 #include <cstdlib>
+#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -34,6 +35,14 @@ inline bool SplitKeyValues(const std::string& text, std::vector<std::pair<std::s
     }
   }
   return flush();
+}
+
+// A number for a message: six significant digits ("0.001", "1e+06").
+inline std::string NumberForMessage(double v) {
+  std::ostringstream out;
+  out.precision(6);
+  out << v;
+  return out.str();
 }
 
 // The whole of `value` as a number; false if any of it is not part of one.

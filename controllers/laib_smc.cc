@@ -13,12 +13,8 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-std::string Number(double v) {
-  std::ostringstream out;
-  out.precision(6);
-  out << v;
-  return out.str();
-}
+// numbers in messages
+std::string Number(double v) { return NumberForMessage(v); }
 
 std::string KeyError(const std::string& key, const std::string& message) {
   return "laib controller: key '" + key + "': " + message;
