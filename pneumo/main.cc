@@ -19,6 +19,7 @@
 #include <CLI/CLI.hpp>
 #include <mujoco/mujoco.h>
 
+#include "diagnose_command.h"
 #include "generate.h"
 #include "identify_command.h"
 #include "log_csv.h"
@@ -289,6 +290,27 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"karpenko2006", "hodgson2012", "laib2021"}));
   reproduce->add_option("--out", reproduce_out, "directory for the JSON, the logs and the comparison plots (PNG)");
 
+  pneumatic::DiagnoseCommandOptions diagnose_options;
+  CLI::App* diagnose = app.add_subcommand(
+      "diagnose", "find where a model and a measured log part, which unmodelled effect explains it, and how far the gap shrinks");
+  diagnose->add_option("model", diagnose_options.model_path, "MJCF model with pneumatic cylinders")->required();
+  diagnose->add_option("log", diagnose_options.train_path, "training log (shared/spec/log_format.md), closed loop, no v needed")
+      ->required();
+  diagnose->add_option("--heldout", diagnose_options.heldout_path,
+                       "held-out log (default: the last 30 % of the training log is held out)");
+  diagnose->add_option("--report", diagnose_options.report_dir, "directory for the HTML report and its PNG plots");
+  diagnose->add_option("--horizon", diagnose_options.diagnose.horizon_s, "prediction window, s")->capture_default_str()
+      ->check(CLI::Range(0.005, 10.0));
+  diagnose->add_option("--max-effects", diagnose_options.diagnose.max_effects, "effects searched one after the other")
+      ->capture_default_str()->check(CLI::Range(1, 5));
+  diagnose->add_option("--threads", diagnose_options.diagnose.threads, "threads for the predictions")->capture_default_str()
+      ->check(CLI::Range(1, 64));
+  diagnose->add_flag("--quiet", diagnose_options.quiet, "no progress on stderr");
+  diagnose->footer(
+      "Prints JSON: verdict.{effect, effects, params, heldout_gap_before, heldout_gap_after}, the ranking of every\n"
+      "candidate (score = the information criterion dIC), where the gap lies (per signal, regime, over time).\n"
+      "README, \"Diagnosis\", defines the gap and the verdict rule.");
+
   CLI::App* info = app.add_subcommand("info", "list a model's cylinders and their log signals");
   info->add_option("model", model_path, "MJCF model")->required();
 
@@ -318,6 +340,7 @@ int main(int argc, char** argv) {
     return RunRollout(model_path, commands_path, out_path, duration_given, duration, period, sets, follow_motion);
   }
   if (*generate) return RunGenerate(generate_model, generate_out, generate_options);
+  if (*diagnose) return pneumatic::RunDiagnose(diagnose_options);
   if (*identify) {
     identify_options.parametric = !skip_parametric;
     identify_options.physical = !skip_physical;

@@ -1,0 +1,263 @@
+// The diagnosis checked on data whose effect was withheld from the model (issue 14, item 3).
+//
+// For rigs A (on/off valves), B (5/3 proportional valve) and C (one valve per chamber) of
+// shared/spec/rigs.md, "real" logs are simulated from the rig with one unmodelled effect switched
+// on (or two, or none), under a position PID at 500 Hz following a multi-sine reference, with
+// sensor noise; the held-out log has another reference and seed. Each pair is diagnosed with the
+// nominal rig, which lacks the effect. Where the project has more than one form of an effect, the
+// truth uses a form the candidate library does not (truth -> candidate):
+//   friction       LuGre (dynamic stick-slip, static above Coulomb)  -> Coulomb (joint frictionloss)
+//   valve_delay    on/off armature delays that lose short pulses     -> (same keys: the armature model)
+//                  5/3 spool dead time (Pade), if the plugin has it  -> slower first-order spool
+//   leakage        laminar leaks                                     -> orifice leaks, if the plugin has them
+//   heat_transfer  gas energy equation, per-chamber wall conductance -> one conductance, or the polytropic index
+//   supply_drop    a shared reservoir behind a restrictive line      -> a lower constant supply pressure
+//   payload        a heavier moving body                              -> added mass
+//   line_dynamics  tube volume and restriction                       -> (same keys: no transport delay yet)
+//   sensor_bias    offset and gain of the logged p_P                 -> offset and gain of one signal
+// Prints one line per case, the confusion matrix (true effect vs verdict) and the median held-out
+// shrink of the cases with an effect. Usage: bench_diagnose [--quick] [--rig A|B|C] [--duration S]
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <map>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "closed_loop.h"
+#include "diagnosis/candidates.h"
+#include "diagnosis/diagnose.h"
+#include "machine.h"
+#include "pneumatic/pneumatic.h"
+
+namespace {
+
+namespace dg = pneumatic::diagnosis;
+
+bool HasKey(const std::string& key) {
+  for (const pneumatic::ParameterDoc& d : pneumatic::Parameters()) {
+    if (d.key == key) return true;
+  }
+  return false;
+}
+
+struct Rig {
+  std::string name, file;
+  double stroke = 0, max_force = 0, mass = 0;
+  double mid_volume = 0;        // m^3: a chamber at mid-stroke (dead volume + A l/2)
+  double valve_conductance = 0; // kg/(s Pa): the valve's port wide open, as an ISO 6358 sonic conductance
+};
+
+// the truth: MJCF edits, model fields, and a sensor bias on the logged p_P
+struct Truth {
+  std::string label;                 // what is switched on
+  std::vector<std::string> effects;  // effects.md names
+  std::vector<dg::ModelEdit> edits;
+  double added_mass = 0;             // kg on the piston body
+  double p_offset = 0, p_gain = 1;   // logged p_P = p_atm + offset + gain (p - p_atm)
+};
+
+// a multi-sine reference (4 components, 0.2-1.2 Hz, random phases) at 60 % of the half stroke
+pneumatic::log::Log Reference(const Rig& rig, std::uint64_t seed, double duration) {
+  std::mt19937_64 random(seed);
+  std::uniform_real_distribution<double> f(0.2, 1.2), phase(0, 2 * M_PI);
+  double fs[4], ph[4];
+  for (int i = 0; i < 4; ++i) fs[i] = f(random), ph[i] = phase(random);
+  pneumatic::log::Log ref;
+  ref.columns = {{"cyl", "ref"}};
+  ref.values.assign(1, {});
+  for (double t = 0; t <= duration + 1e-9; t += 0.01) {
+    double s = 0;
+    for (int i = 0; i < 4; ++i) s += std::sin(2 * M_PI * fs[i] * t + ph[i]) / 4;
+    const double fade = t < 1 ? std::sin(M_PI * t / 2) * std::sin(M_PI * t / 2) : 1;
+    ref.time.push_back(t);
+    ref.values[0].push_back(0.6 * 0.5 * rig.stroke * fade * s * 2);
+  }
+  return ref;
+}
+
+std::optional<pneumatic::log::Log> Simulate(const Rig& rig, const Truth& truth, std::uint64_t seed, double duration,
+                                            std::string* error) {
+  dg::ModelPtr m = dg::LoadEditedModel(rig.file, truth.edits, error);
+  if (!m) return std::nullopt;
+  if (truth.added_mass != 0) {
+    const int body = mj_name2id(m.get(), mjOBJ_BODY, "piston");
+    const double scale = (m->body_mass[body] + truth.added_mass) / m->body_mass[body];
+    m->body_mass[body] += truth.added_mass;
+    for (int i = 0; i < 3; ++i) m->body_inertia[3 * body + i] *= scale;
+  }
+  pneumatic::log::Log ref = Reference(rig, seed, duration);
+  pneumatic::ClosedLoopOptions o;
+  o.duration = duration;
+  o.control_rate = 500;
+  o.controller = "pid";
+  o.reference = &ref;
+  o.seed = seed;
+  o.noise_pressure = 500;   // Pa
+  o.noise_position = 5e-5;  // m
+  pneumatic::ClosedLoopResult r = pneumatic::RunClosedLoop(m.get(), o);
+  if (!r.log) {
+    *error = r.error;
+    return std::nullopt;
+  }
+  if (truth.p_offset != 0 || truth.p_gain != 1) {
+    const int c = r.log->FindColumn("cyl", "p_P");
+    const double p_atm = pneumatic::Cylinders(m.get())[0].p_atm;
+    for (double& p : r.log->values[c]) p = p_atm + truth.p_offset + truth.p_gain * (p - p_atm);
+  }
+  r.log->source = rig.name + " " + truth.label + " seed " + std::to_string(seed);
+  return r.log;
+}
+
+std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
+  auto num = [](double v) {
+    char t[32];
+    std::snprintf(t, sizeof(t), "%.6g", v);
+    return std::string(t);
+  };
+  std::vector<Truth> t;
+  t.push_back({"none", {}, {}});
+  if (valve == "onoff") {
+    t.push_back({"valve delays 4 ms open, 2 ms close", {"valve_delay"}, {{"cyl", {}, {}, {{"delay_open", "0.004"}, {"delay_close", "0.002"}}}}});
+  } else if (valve == "proportional_5_3" && HasKey("spool_dead_time")) {
+    t.push_back({"spool dead time 8 ms", {"valve_delay"}, {{"cyl", {"dP", "dN"}, {}, {{"spool_dead_time", "0.008"}}}}});
+  } else if (valve == "proportional_5_3") {
+    t.push_back({"spool 4x slower", {"valve_delay"}, {{"cyl", {}, {}, {{"spool_time_constant", "0.0168"}}}}});
+  }
+  if (valve == "proportional_5_3") {
+    t.push_back({"spool deadband 12 %", {"valve_deadband"}, {{"cyl", {}, {}, {{"deadband", "0.12"}}}}});
+  } else if (valve == "proportional_per_chamber" && HasKey("deadband_voltage")) {
+    t.push_back({"deadband 0.3 V", {"valve_deadband"}, {{"cyl", {}, {}, {{"deadband_voltage", "0.3"}}}}});
+  }
+  if (HasKey("friction_model")) {
+    const double fc = 0.03 * rig.max_force;
+    t.push_back({"LuGre friction, Coulomb " + num(fc) + " N, static " + num(2 * fc) + " N", {"friction"},
+                 {{"cyl", {"z"}, {"friction"}, {{"friction_model", "lugre"}, {"coulomb_friction", num(fc)}, {"static_friction", num(2 * fc)}, {"stribeck_velocity", "0.01"}}}}});
+  }
+  {
+    // laminar: about 2 % of a valve's flow at a 3 bar difference across the piston
+    const double g = valve == "proportional_per_chamber" ? 2e-10 : valve == "onoff" ? 1e-10 : 2e-9;
+    t.push_back({"laminar leak across the piston " + num(g) + " kg/(s Pa)", {"leakage"},
+                 {{"cyl", {}, {}, {{"piston_leak_conductance", num(g)}, {"P.atmosphere_leak_conductance", num(g / 4)}}}}});
+  }
+  if (HasKey("thermal_model")) {
+    // wall time constants m c_v / (h A) of 0.3 s (P) and 0.6 s (N) at 3 bar in a mid-stroke chamber
+    const double mcv = 3e5 * rig.mid_volume / (293 * 0.4);
+    t.push_back({"gas energy equation, wall time constants 0.3 s / 0.6 s", {"heat_transfer"},
+                 {{"cyl", {"TP", "TN"}, {}, {{"thermal_model", "energy"}, {"P.wall_heat_conductance", num(mcv / 0.3)}, {"N.wall_heat_conductance", num(mcv / 0.6)}}}}});
+  }
+  if (HasKey("line_volume")) {
+    t.push_back({"tube of half the mid-stroke volume behind a restriction", {"line_dynamics"},
+                 {{"cyl", {"LP", "LN"}, {}, {{"line_volume", num(0.5 * rig.mid_volume)}, {"line_conductance", num(1.5 * rig.valve_conductance)}}}}});
+  }
+  t.push_back({"payload: mass x 5", {"payload"}, {}, 4 * rig.mass});
+  t.push_back({"p_P sensor offset 15 kPa, gain 1.03", {"sensor_bias"}, {}, 0, 15000, 1.03});
+  t.push_back({"payload (mass x 5) and p_P sensor offset 15 kPa", {"payload", "sensor_bias"}, {}, 4 * rig.mass, 15000, 1.03});
+  return t;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  bool quick = false;
+  std::string only;
+  double duration = 12;
+  for (int i = 1; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--quick")) quick = true;
+    else if (!std::strcmp(argv[i], "--rig") && i + 1 < argc) only = argv[++i];
+    else if (!std::strcmp(argv[i], "--duration") && i + 1 < argc) duration = std::atof(argv[++i]);
+  }
+  pneumatic::benchmarks::PrintMachine(PNEUMATIC_BUILD_TYPE);
+  const std::string dir = PNEUMATIC_MODELS_DIR;
+  std::vector<Rig> rigs = {{"A", dir + "/rig_onoff.xml"}, {"B", dir + "/rig_proportional.xml"}, {"C", dir + "/rig_per_chamber.xml"}};
+  std::map<std::string, std::map<std::string, int>> confusion;
+  std::vector<double> shrinks;
+  int cases = 0, correct = 0, false_on_clean = 0, clean = 0;
+  for (Rig& rig : rigs) {
+    if (!only.empty() && rig.name != only) continue;
+    std::string error;
+    dg::ModelPtr m = dg::LoadEditedModel(rig.file, {}, &error);
+    if (!m) {
+      std::fprintf(stderr, "%s\n", error.c_str());
+      return 1;
+    }
+    rig.stroke = *pneumatic::GetParameter(m.get(), "cyl", "stroke", &error);
+    rig.max_force = *pneumatic::GetParameter(m.get(), "cyl", "P.area", &error) *
+                    (pneumatic::Cylinders(m.get())[0].p_supply - pneumatic::Cylinders(m.get())[0].p_atm);
+    rig.mass = m->body_mass[mj_name2id(m.get(), mjOBJ_BODY, "piston")];
+    rig.mid_volume = *pneumatic::GetParameter(m.get(), "cyl", "P.dead_volume", &error) +
+                     *pneumatic::GetParameter(m.get(), "cyl", "P.area", &error) * rig.stroke / 2;
+    const std::string valve = *pneumatic::GetChoice(m.get(), "cyl", "valve", &error);
+    // choked mass flow per upstream pressure of an orifice of area A: 0.72 A sqrt(gamma / (r T))
+    // (2 / (gamma + 1))^((gamma + 1) / (2 (gamma - 1))) = 1.7e-3 A s/m for air at 293 K (paper 000 eq. 1)
+    rig.valve_conductance = valve == "onoff" ? *pneumatic::GetParameter(m.get(), "cyl", "P.sonic_conductance", &error)
+                            : valve == "proportional_5_3" ? 1.7e-3 * 0.0226 * 2.5e-4 * 5
+                                                          : 1.7e-3 * 2e-6 * 1.7;
+    std::vector<Truth> truths = Truths(rig, valve);
+    if (quick) truths.resize(std::min<size_t>(truths.size(), 2));
+    for (const Truth& truth : truths) {
+      const auto t0 = std::chrono::steady_clock::now();
+      std::optional<pneumatic::log::Log> train = Simulate(rig, truth, 1, duration, &error);
+      std::optional<pneumatic::log::Log> held = train ? Simulate(rig, truth, 2, duration, &error) : std::nullopt;
+      if (!held) {
+        std::printf("rig %s %-60s simulation failed: %s\n", rig.name.c_str(), truth.label.c_str(), error.c_str());
+        continue;
+      }
+      dg::DiagnoseOptions o;
+      dg::Diagnosis d = dg::Diagnose(rig.file, *train, &*held, o);
+      const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (!d.error.empty()) {
+        std::printf("rig %s %-60s diagnosis failed: %s\n", rig.name.c_str(), truth.label.c_str(), d.error.c_str());
+        continue;
+      }
+      std::string found;
+      for (const std::string& e : d.effects) found += (found.empty() ? "" : "+") + e;
+      if (found.empty()) found = "none";
+      std::string truth_name;
+      for (const std::string& e : truth.effects) truth_name += (truth_name.empty() ? "" : "+") + e;
+      if (truth_name.empty()) truth_name = "none";
+      // correct: the same set of effects (order free)
+      std::vector<std::string> a = truth.effects, b = d.effects;
+      std::sort(a.begin(), a.end()), std::sort(b.begin(), b.end());
+      const bool ok = a == b;
+      ++cases, correct += ok;
+      if (truth.effects.empty()) ++clean, false_on_clean += !d.effects.empty();
+      const double shrink = 100 * (d.heldout_gap_before - d.heldout_gap_after) / d.heldout_gap_before;
+      if (!truth.effects.empty()) shrinks.push_back(shrink);
+      confusion[truth_name][found]++;
+      std::printf("rig %s %-58s verdict %-24s %s gap %.4f -> %.4f (%5.1f %%) %5.1f s\n", rig.name.c_str(), truth.label.c_str(),
+                  found.c_str(), ok ? "right" : "WRONG", d.heldout_gap_before, d.heldout_gap_after, shrink, seconds);
+      std::fflush(stdout);
+    }
+  }
+  std::printf("\nconfusion matrix (rows: true effect, columns: verdict)\n");
+  std::vector<std::string> verdicts;
+  for (const auto& [t, row] : confusion) {
+    for (const auto& [v, n] : row) {
+      if (std::find(verdicts.begin(), verdicts.end(), v) == verdicts.end()) verdicts.push_back(v);
+    }
+  }
+  std::printf("| true \\ verdict |");
+  for (const std::string& v : verdicts) std::printf(" %s |", v.c_str());
+  std::printf("\n|---|");
+  for (size_t i = 0; i < verdicts.size(); ++i) std::printf("---|");
+  std::printf("\n");
+  for (const auto& [t, row] : confusion) {
+    std::printf("| %s |", t.c_str());
+    for (const std::string& v : verdicts) {
+      auto it = row.find(v);
+      std::printf(" %s |", it == row.end() ? "" : std::to_string(it->second).c_str());
+    }
+    std::printf("\n");
+  }
+  std::sort(shrinks.begin(), shrinks.end());
+  const double median = shrinks.empty() ? 0 : shrinks.size() % 2 ? shrinks[shrinks.size() / 2]
+                                                                  : 0.5 * (shrinks[shrinks.size() / 2 - 1] + shrinks[shrinks.size() / 2]);
+  std::printf("\ncorrect verdicts: %d of %d (%.0f %%); false verdicts on effect-free logs: %d of %d; median held-out shrink "
+              "with an effect: %.1f %% (targets: >= 90 %%, 0, >= 60 %%)\n",
+              correct, cases, cases ? 100.0 * correct / cases : 0.0, false_on_clean, clean, median);
+  return 0;
+}

@@ -1,0 +1,301 @@
+#include "diagnosis/candidates.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+
+namespace pneumatic::diagnosis {
+namespace {
+
+bool HasKey(const std::string& key) {
+  for (const ParameterDoc& doc : Parameters()) {
+    if (doc.key == key) return true;
+  }
+  return false;
+}
+
+std::string KeyUnit(const std::string& key) {
+  std::string base = key.size() > 2 && key[1] == '.' ? key.substr(2) : key;
+  for (const ParameterDoc& doc : Parameters()) {
+    if (doc.key == base) return doc.unit;
+  }
+  return "";
+}
+
+double Parameter(const mjModel* m, const std::string& cylinder, const std::string& key, double fallback) {
+  std::string ignored;
+  return GetParameter(m, cylinder, key, &ignored).value_or(fallback);
+}
+
+std::string Choice(const mjModel* m, const std::string& cylinder, const std::string& key) {
+  std::string ignored;
+  return GetChoice(m, cylinder, key, &ignored).value_or("");
+}
+
+// a key of the cylinder's "pneumatic:" text, fitted
+EffectParameter KeyParameter(const std::string& cylinder, const std::string& key, double initial, double lower, double upper,
+                             double scale) {
+  EffectParameter p;
+  p.name = cylinder + ":" + key;
+  p.unit = KeyUnit(key);
+  p.initial = initial, p.lower = lower, p.upper = upper, p.scale = scale;
+  p.apply = [cylinder, key](mjModel* m, SensorModel*, double value) {
+    std::string error;
+    return SetParameter(m, cylinder, key, value, &error) ? std::string() : error;
+  };
+  return p;
+}
+
+// the largest force (N or N m) the cylinder's chambers can apply: a scale for friction
+double MaxForce(const mjModel* m, const CylinderSeries& c) {
+  const double area = Parameter(m, c.info.name, "P.area", 1e-4);
+  return area * (c.info.p_supply - c.info.p_atm);
+}
+
+std::string Replace(const std::string& text, size_t at, size_t length, const std::string& with) {
+  return text.substr(0, at) + with + text.substr(at + length);
+}
+
+}  // namespace
+
+const std::vector<std::string>& EffectNames() {
+  static const std::vector<std::string> names = {"valve_delay",  "valve_deadband", "friction", "leakage",
+                                                 "heat_transfer", "supply_drop",   "line_dynamics", "payload",
+                                                 "sensor_bias",  "none"};
+  return names;
+}
+
+ModelPtr LoadEditedModel(const std::string& path, const std::vector<ModelEdit>& edits, std::string* error) {
+  std::ifstream file(path, std::ios::binary);
+  std::stringstream buffer;
+  buffer << file.rdbuf();
+  if (!file) {
+    *error = path + ": cannot read the model";
+    return ModelPtr(nullptr, mj_deleteModel);
+  }
+  std::string xml = buffer.str();
+  for (const ModelEdit& e : edits) {
+    // keys: appended to the data attribute of <text name="pneumatic:CYL" data="...">
+    const std::string name = "\"pneumatic:" + e.cylinder + "\"";
+    const size_t at = xml.find(name);
+    const size_t open = at == std::string::npos ? at : xml.rfind('<', at);
+    const size_t close = open == std::string::npos ? open : xml.find('>', at);
+    const size_t data = close == std::string::npos ? close : xml.find("data=\"", open);
+    if (data == std::string::npos || data > close) {
+      *error = path + ": no <text name=\"pneumatic:" + e.cylinder + "\" data=\"...\"> element to edit (the diagnosis edits the model's own file, not its includes)";
+      return ModelPtr(nullptr, mj_deleteModel);
+    }
+    const size_t end = xml.find('"', data + 6);
+    std::string added;
+    for (const auto& [key, value] : e.keys) added += " " + key + "=" + value;
+    xml = Replace(xml, end, 0, added);
+    // state actuators: on the chamber P actuator's transmission, after every other actuator
+    // (MuJoCo 2.2 wants stateless actuators first)
+    if (!e.state_actuators.empty() || !e.force_actuators.empty()) {
+      const size_t chamber = xml.find("\"" + e.cylinder + ".P\"");
+      const size_t element = chamber == std::string::npos ? chamber : xml.rfind('<', chamber);
+      const size_t element_end = element == std::string::npos ? element : xml.find('>', chamber);
+      std::string transmission;
+      for (const char* attribute : {"joint=\"", "tendon=\"", "jointinparent=\""}) {
+        size_t a = element == std::string::npos ? std::string::npos : xml.find(attribute, element);
+        if (a != std::string::npos && a < element_end) {
+          transmission = xml.substr(a, xml.find('"', a + std::string(attribute).size()) + 1 - a);
+        }
+      }
+      const size_t last = xml.rfind("</actuator>");
+      if (transmission.empty() || last == std::string::npos) {
+        *error = path + ": cannot find the transmission of actuator '" + e.cylinder + ".P' to add the effect's states";
+        return ModelPtr(nullptr, mj_deleteModel);
+      }
+      std::string actuators, forces;
+      for (const std::string& suffix : e.state_actuators) {
+        actuators += "<general name=\"" + e.cylinder + "." + suffix + "\" " + transmission + " dyntype=\"user\" gaintype=\"user\"/>\n";
+      }
+      for (const std::string& suffix : e.force_actuators) {
+        forces += "\n<general name=\"" + e.cylinder + "." + suffix + "\" " + transmission + " gaintype=\"user\" biastype=\"user\"/>";
+      }
+      xml = Replace(xml, last, 0, actuators);
+      const size_t first = xml.find('>', xml.find("<actuator"));
+      xml = Replace(xml, first + 1, 0, forces);
+    }
+  }
+  // a virtual file of the same name: MuJoCo looks it up first, and resolves includes and assets
+  // relative to the original's directory
+  auto vfs = std::make_unique<mjVFS>();
+  mj_defaultVFS(vfs.get());
+  const std::string virtual_name = path.substr(0, path.rfind('.')) + ".diagnosis.xml";
+  if (mj_makeEmptyFileVFS(vfs.get(), virtual_name.c_str(), static_cast<int>(xml.size())) != 0) {
+    *error = path + ": cannot make the edited model's virtual file";
+    return ModelPtr(nullptr, mj_deleteModel);
+  }
+  const int id = mj_findFileVFS(vfs.get(), virtual_name.c_str());
+  std::copy(xml.begin(), xml.end(), static_cast<char*>(vfs->filedata[id]));
+  char load_error[1000] = "";
+  ModelPtr m(mj_loadXML(virtual_name.c_str(), vfs.get(), load_error, sizeof(load_error)), mj_deleteModel);
+  mj_deleteVFS(vfs.get());
+  if (!m) {
+    *error = path + " with the effect's edits: " + load_error;
+    return m;
+  }
+  std::string attach_error;
+  if (!Attach(m.get(), &attach_error)) {
+    *error = path + " with the effect's edits: " + attach_error;
+    return ModelPtr(nullptr, mj_deleteModel);
+  }
+  return m;
+}
+
+std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& meas) {
+  std::vector<Candidate> out;
+  auto per_cylinder = [&](const std::string& effect, const std::string& form,
+                          const std::function<void(const CylinderSeries&, Candidate*)>& add) {
+    Candidate c{effect, form, {}, {}};
+    for (const CylinderSeries& cyl : meas.cylinders) add(cyl, &c);
+    if (!c.parameters.empty()) out.push_back(std::move(c));
+  };
+
+  // valve_delay: what delays the valve's response beyond the nominal valve
+  per_cylinder("valve_delay", "", [&](const CylinderSeries& cyl, Candidate* c) {
+    const std::string& n = cyl.info.name;
+    const std::string valve = Choice(m, n, "valve");
+    if (valve == "onoff") {
+      c->form = "on/off valve opening and closing delays (armature model)";
+      c->parameters.push_back(KeyParameter(n, "delay_open", Parameter(m, n, "delay_open", 0), 0, 0.02, 1e-3));
+      c->parameters.push_back(KeyParameter(n, "delay_close", Parameter(m, n, "delay_close", 0), 0, 0.02, 1e-3));
+    } else if (valve == "proportional_5_3") {
+      c->form = "a slower spool: first-order spool lag";
+      c->parameters.push_back(
+          KeyParameter(n, "spool_time_constant", Parameter(m, n, "spool_time_constant", 0), 0, 0.1, 2e-3));
+    }
+  });
+  // valve_deadband: no flow for small spool displacements
+  per_cylinder("valve_deadband", "", [&](const CylinderSeries& cyl, Candidate* c) {
+    const std::string& n = cyl.info.name;
+    const std::string valve = Choice(m, n, "valve");
+    if (valve == "proportional_5_3") {
+      c->form = "spool deadband (fraction of the spool range)";
+      c->parameters.push_back(KeyParameter(n, "deadband", Parameter(m, n, "deadband", 0), 0, 0.5, 0.05));
+    } else if (valve == "proportional_per_chamber" && HasKey("deadband_voltage")) {
+      c->form = "a voltage band added to each port's sealed band";
+      c->parameters.push_back(KeyParameter(n, "deadband_voltage", Parameter(m, n, "deadband_voltage", 0), 0, 3, 0.1));
+    }
+  });
+  // friction: Coulomb friction of the seals as MuJoCo's frictionloss on the driven joint (an
+  // implicit constraint: it holds below the level and opposes sliding at it)
+  per_cylinder("friction", "Coulomb friction (the joint's frictionloss)", [&](const CylinderSeries& cyl, Candidate* c) {
+    const int dof = m->jnt_dofadr[cyl.joint];
+    EffectParameter p;
+    p.name = cyl.info.name + ":joint " + std::string(m->names + m->name_jntadr[cyl.joint]) + " frictionloss";
+    p.unit = m->jnt_type[cyl.joint] == mjJNT_HINGE ? "N m" : "N";
+    p.initial = m->dof_frictionloss[dof];
+    p.lower = 0, p.upper = 0.5 * MaxForce(m, cyl) / cyl.gear;
+    p.scale = 0.02 * MaxForce(m, cyl) / cyl.gear;
+    p.apply = [dof](mjModel* model, SensorModel*, double value) {
+      model->dof_frictionloss[dof] = value;
+      return std::string();
+    };
+    c->parameters.push_back(p);
+  });
+  // leakage: across the piston and from each chamber to the atmosphere
+  {
+    const bool orifice = HasKey("piston_leak_area");
+    per_cylinder("leakage", orifice ? "orifice leaks across the piston and to the atmosphere"
+                                    : "laminar leaks across the piston and to the atmosphere",
+                 [&](const CylinderSeries& cyl, Candidate* c) {
+                   const std::string& n = cyl.info.name;
+                   if (orifice) {
+                     c->parameters.push_back(KeyParameter(n, "piston_leak_area", Parameter(m, n, "piston_leak_area", 0), 0, 1e-5, 1e-8));
+                     c->parameters.push_back(KeyParameter(n, "P.atmosphere_leak_area", Parameter(m, n, "P.atmosphere_leak_area", 0), 0, 1e-5, 1e-8));
+                     c->parameters.push_back(KeyParameter(n, "N.atmosphere_leak_area", Parameter(m, n, "N.atmosphere_leak_area", 0), 0, 1e-5, 1e-8));
+                   } else {
+                     c->parameters.push_back(KeyParameter(n, "piston_leak_conductance", Parameter(m, n, "piston_leak_conductance", 0), 0, 1e-6, 1e-11));
+                     c->parameters.push_back(KeyParameter(n, "P.atmosphere_leak_conductance", Parameter(m, n, "P.atmosphere_leak_conductance", 0), 0, 1e-6, 1e-11));
+                     c->parameters.push_back(KeyParameter(n, "N.atmosphere_leak_conductance", Parameter(m, n, "N.atmosphere_leak_conductance", 0), 0, 1e-6, 1e-11));
+                   }
+                 });
+  }
+  // heat_transfer: the gas temperature as a state with one wall heat conductance for both
+  // chambers, or (before the energy form exists) the polytropic index
+  per_cylinder("heat_transfer", "", [&](const CylinderSeries& cyl, Candidate* c) {
+    const std::string& n = cyl.info.name;
+    if (HasKey("thermal_model") && Choice(m, n, "thermal_model") != "energy") {
+      c->form = "gas temperature as a state, one wall heat conductance for both chambers";
+      // start from a wall time constant m c_v / (h A) of 1 s for a chamber at mid-stroke at 3 bar
+      const double volume = Parameter(m, n, "P.dead_volume", 1e-6) + Parameter(m, n, "P.area", 1e-4) * cyl.stroke / 2;
+      const double conductance = 3e5 * volume / (Parameter(m, n, "temperature", 293) * 0.4) / 1.0;
+      char text[32];
+      std::snprintf(text, sizeof(text), "%.6g", conductance);
+      c->edits.push_back({n, {"TP", "TN"}, {}, {{"thermal_model", "energy"}, {"wall_heat_conductance", text}}});
+      c->parameters.push_back(KeyParameter(n, "wall_heat_conductance", conductance, 1e-3 * conductance, 1e3 * conductance, conductance));
+    } else {
+      c->form = "polytropic index of both chambers";
+      c->parameters.push_back(KeyParameter(n, "polytropic_index", Parameter(m, n, "P.polytropic_index", 1.4), 1.0, 1.7, 0.1));
+    }
+  });
+  // supply_drop: a supply pressure below the nominal one
+  per_cylinder("supply_drop", "a lower supply pressure", [&](const CylinderSeries& cyl, Candidate* c) {
+    const std::string& n = cyl.info.name;
+    const double nominal = cyl.info.p_supply;
+    c->parameters.push_back(KeyParameter(n, "p_supply", nominal, std::max(cyl.info.p_exhaust * 1.05, 0.5 * nominal), nominal * 1.05,
+                                         0.02 * (nominal - cyl.info.p_exhaust)));
+  });
+  // line_dynamics: tube volume and its restriction between valve and chamber
+  if (HasKey("line_volume")) {
+    per_cylinder("line_dynamics", "tube volume between valve and chamber with its restriction (both chambers alike)",
+                 [&](const CylinderSeries& cyl, Candidate* c) {
+                   const std::string& n = cyl.info.name;
+                   const double v0 = Parameter(m, n, "P.dead_volume", 1e-6);
+                   c->edits.push_back({n, {"LP", "LN"}, {}, {{"line_volume", std::to_string(v0)}, {"line_conductance", "1e-8"}}});
+                   c->parameters.push_back(KeyParameter(n, "line_volume", v0, 1e-3 * v0, 100 * v0, v0));
+                   c->parameters.push_back(KeyParameter(n, "line_conductance", 1e-8, 1e-11, 1e-5, 1e-8));
+                 });
+  }
+  // payload: a moving mass different from the model's, on the body the cylinder's joint moves
+  per_cylinder("payload", "added moving mass on the driven body", [&](const CylinderSeries& cyl, Candidate* c) {
+    const int body = m->jnt_bodyid[cyl.joint];
+    const double mass = m->body_mass[body];
+    EffectParameter p;
+    p.name = cyl.info.name + ":body " + std::string(m->names + m->name_bodyadr[body]) + " added mass";
+    p.unit = "kg";
+    p.initial = 0, p.lower = -0.8 * mass, p.upper = 20 * mass, p.scale = 0.1 * mass;
+    const double inertia[3] = {m->body_inertia[3 * body], m->body_inertia[3 * body + 1], m->body_inertia[3 * body + 2]};
+    p.apply = [body, mass, inertia](mjModel* model, SensorModel*, double value) {
+      // the inertia scales with the mass: the added mass is spread like the body's own
+      model->body_mass[body] = mass + value;
+      for (int i = 0; i < 3; ++i) model->body_inertia[3 * body + i] = inertia[i] * (mass + value) / mass;
+      return std::string();
+    };
+    c->parameters.push_back(p);
+  });
+  // sensor_bias: offset and gain of one measured signal (a measurement model, not physics; a
+  // pressure sensor's gain acts about the atmosphere, SensorModel)
+  for (int s = 0; s < meas.signals(); ++s) {
+    const std::vector<double>& y = meas.Signal(s);
+    const auto [lo, hi] = std::minmax_element(y.begin(), y.end());
+    const double span = std::max(*hi - *lo, 1e-12);
+    Candidate c{"sensor_bias", "offset and gain of " + meas.SignalLabel(s), {}, {}};
+    EffectParameter offset;
+    offset.name = meas.SignalLabel(s) + ":offset";
+    offset.unit = s % 3 == kPosition ? "m" : "Pa";
+    offset.initial = 0, offset.lower = -span, offset.upper = span, offset.scale = 0.01 * span;
+    offset.apply = [s](mjModel*, SensorModel* sensors, double value) {
+      sensors->offset[s] = value;
+      return std::string();
+    };
+    EffectParameter gain;
+    gain.name = meas.SignalLabel(s) + ":gain";
+    gain.unit = "1";
+    gain.initial = 1, gain.lower = 0.5, gain.upper = 1.5, gain.scale = 0.01;
+    gain.apply = [s](mjModel*, SensorModel* sensors, double value) {
+      sensors->gain[s] = value;
+      return std::string();
+    };
+    c.parameters = {offset, gain};
+    out.push_back(std::move(c));
+  }
+  return out;
+}
+
+}  // namespace pneumatic::diagnosis

@@ -1,0 +1,70 @@
+// The candidate effects a diagnosis tries (issue 14, "Which"): for each name of
+// shared/spec/effects.md, the form the diagnosis adds to the user's model and the parameters it
+// fits. The forms are deliberately simple (a Coulomb friction for whatever the seals do, one wall
+// heat conductance, an orifice leak): a real effect will not follow any one form, and a simple
+// form that captures its signature generalises to held-out data better than a rich one.
+//
+// A candidate changes the model in up to three ways: keys of a cylinder's "pneumatic:" text
+// (SetParameter), fields of mjModel (a joint's frictionloss, a body's mass), and the sensor model
+// (offset and gain of one measured signal). Forms with their own states (a gas temperature) also
+// need the state's actuator in the MJCF: the candidate lists it as a ModelEdit, and the model is
+// reloaded from its file with the edit (LoadEditedModel).
+#ifndef PNEUMATIC_DIAGNOSIS_CANDIDATES_H_
+#define PNEUMATIC_DIAGNOSIS_CANDIDATES_H_
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <mujoco/mujoco.h>
+
+#include "diagnosis/measurements.h"
+#include "diagnosis/prediction.h"
+
+namespace pneumatic::diagnosis {
+
+using ModelPtr = std::unique_ptr<mjModel, void (*)(mjModel*)>;
+
+// MJCF text added to a model: state actuators "<cylinder>.<suffix>" on the cylinder's
+// transmission, and keys appended to its "pneumatic:<cylinder>" text.
+struct ModelEdit {
+  std::string cylinder;
+  std::vector<std::string> state_actuators;                 // suffixes, e.g. "TP", "TN"
+  std::vector<std::string> force_actuators;                 // stateless, with a user bias: "friction"
+  std::vector<std::pair<std::string, std::string>> keys;    // e.g. {"thermal_model", "energy"}
+};
+
+// Loads the MJCF at `path` with `edits` applied to its text (through a virtual file beside it, so
+// its includes and assets resolve as before) and attaches it. Null and *error on failure.
+ModelPtr LoadEditedModel(const std::string& path, const std::vector<ModelEdit>& edits, std::string* error);
+
+// One fitted parameter of a candidate.
+struct EffectParameter {
+  std::string name;   // as reported, e.g. "cyl:delay_open", "cyl:joint x frictionloss", "cyl.p_P:offset"
+  std::string unit;   // SI
+  double initial = 0, lower = 0, upper = 0;
+  double scale = 1;   // typical magnitude: the fit's unit and finite-difference reference
+  // sets the value on a model (with the candidate's edits) and the sensor model: "" or why not
+  std::function<std::string(mjModel*, SensorModel*, double)> apply;
+};
+
+struct Candidate {
+  std::string effect;  // effects.md name
+  std::string form;    // what is added, in words
+  std::vector<ModelEdit> edits;
+  std::vector<EffectParameter> parameters;
+};
+
+// The candidates for m (attached, loaded from its file) and the measurements: every effect of
+// effects.md except `none`, in the forms this model admits (e.g. valve_deadband needs a
+// proportional valve); sensor_bias once per measured signal.
+std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& meas);
+
+// Every effect name of effects.md, `none` last.
+const std::vector<std::string>& EffectNames();
+
+}  // namespace pneumatic::diagnosis
+
+#endif  // PNEUMATIC_DIAGNOSIS_CANDIDATES_H_

@@ -1,0 +1,323 @@
+#include "diagnosis/diagnose.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+
+namespace pneumatic::diagnosis {
+namespace {
+
+double Seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+std::string Fixed(const char* format, double a) {
+  char text[128];
+  std::snprintf(text, sizeof(text), format, a);
+  return text;
+}
+
+// residual series of one signal, concatenated over the windows (normalised)
+std::vector<double> SignalResiduals(const Evaluated& ev, const Measurements& meas, const GapOptions& g, int s) {
+  std::vector<double> r;
+  for (int start : g.windows.starts) {
+    for (int row = start + 1; row <= start + g.windows.horizon_rows && row < meas.rows(); ++row) {
+      const double sim = ev.prediction.simulated[s][row];
+      if (!std::isnan(sim)) r.push_back((sim - meas.Signal(s)[row]) / g.signal_scale[s]);
+    }
+  }
+  return r;
+}
+
+double SideGap(const Prediction& p, const Measurements& meas, const std::vector<double>& scale, int s) {
+  double sum = 0;
+  int n = 0;
+  for (int row = 0; row < meas.rows(); ++row) {
+    const double sim = p.simulated[s][row];
+    if (std::isnan(sim)) continue;
+    const double e = (sim - meas.Signal(s)[row]) / scale[s];
+    sum += e * e, ++n;
+  }
+  return n ? std::sqrt(sum / n) : kNotComputed;
+}
+
+Assessment Assess(const mjModel* m, const SensorModel& sensors, const Measurements& meas, const GapOptions& g,
+                  const Regimes& regimes) {
+  Assessment a;
+  a.full = Evaluate(m, sensors, meas, g);
+  if (!a.full.error.empty()) return a;
+  a.pneumatic = Predict(m, meas, sensors, g.windows, PredictionKind::kPneumatic, g.threads);
+  a.mechanical = Predict(m, meas, sensors, g.windows, PredictionKind::kMechanical, g.threads);
+  for (int s = 0; s < meas.signals(); ++s) {
+    a.pneumatic_gap.push_back(a.pneumatic.error.empty() ? SideGap(a.pneumatic, meas, g.signal_scale, s) : kNotComputed);
+    a.mechanical_gap.push_back(a.mechanical.error.empty() ? SideGap(a.mechanical, meas, g.signal_scale, s) : kNotComputed);
+    std::vector<double> r = SignalResiduals(a.full, meas, g, s);
+    a.whiteness.push_back(LjungBox(r, 20));
+    // correlation with the inputs, row by row over the predicted rows
+    double best = 0;
+    for (const CylinderSeries& c : meas.cylinders) {
+      for (const std::vector<double>& u : c.commands) {
+        std::vector<double> rr, uu;
+        for (int row = 0; row < meas.rows(); ++row) {
+          const double sim = a.full.prediction.simulated[s][row];
+          if (std::isnan(sim)) continue;
+          rr.push_back(sim - meas.Signal(s)[row]);
+          uu.push_back(u[row]);
+        }
+        best = std::max(best, MaxCrossCorrelation(rr, uu, 10));
+      }
+    }
+    a.input_correlation.push_back(best);
+  }
+  // per regime and per window: the mean over signals of the squared normalised residual
+  std::vector<double> row_sq(meas.rows(), kNotComputed);
+  for (int row = 0; row < meas.rows(); ++row) {
+    double sum = 0;
+    int n = 0;
+    for (int s = 0; s < meas.signals(); ++s) {
+      const double sim = a.full.prediction.simulated[s][row];
+      if (std::isnan(sim)) continue;
+      const double e = (sim - meas.Signal(s)[row]) / g.signal_scale[s];
+      sum += e * e, ++n;
+    }
+    if (n == meas.signals()) row_sq[row] = sum / n;
+  }
+  for (size_t k = 0; k < regimes.names.size(); ++k) {
+    double sum = 0;
+    int n = 0;
+    for (int row = 0; row < meas.rows(); ++row) {
+      if (regimes.member[k][row] && !std::isnan(row_sq[row])) sum += row_sq[row], ++n;
+    }
+    a.regime_gap.push_back(n ? std::sqrt(sum / n) : kNotComputed);
+  }
+  for (int start : g.windows.starts) {
+    double sum = 0;
+    int n = 0;
+    for (int row = start + 1; row <= start + g.windows.horizon_rows && row < meas.rows(); ++row) {
+      if (!std::isnan(row_sq[row])) sum += row_sq[row], ++n;
+    }
+    a.window_time.push_back(meas.time[start]);
+    a.window_gap.push_back(n ? std::sqrt(sum / n) : kNotComputed);
+  }
+  return a;
+}
+
+// N / tau of the normalised residuals, tau averaged over the signals
+double EffectiveSamples(const Evaluated& ev, const Measurements& meas, const GapOptions& g) {
+  double tau = 0;
+  for (int s = 0; s < meas.signals(); ++s) tau += IntegratedAutocorrelationTime(SignalResiduals(ev, meas, g, s), 200);
+  tau /= std::max(meas.signals(), 1);
+  return static_cast<double>(ev.residuals.size()) / std::max(tau, 1.0);
+}
+
+}  // namespace
+
+Regimes ClassifyRegimes(const mjModel* m, const Measurements& meas) {
+  Regimes r;
+  r.names = {"filling", "venting", "sealed", "near-zero velocity", "velocity reversal", "near the stroke ends", "large commands"};
+  const int n = meas.rows();
+  r.member.assign(r.names.size(), std::vector<char>(n, 0));
+  const int reversal_rows = std::max(1, static_cast<int>(std::lround(0.02 / meas.period)));
+  for (const CylinderSeries& c : meas.cylinders) {
+    // filling / venting / sealed from the rate of the measured pressures (smoothed like v): a
+    // chamber is filling above 5 % of the supply-exhaust span per second, venting below -5 %
+    const double threshold = 0.05 * (c.info.p_supply - c.info.p_exhaust);
+    const int half = std::max(2, static_cast<int>(std::lround(0.01 / meas.period)));
+    std::vector<double> rate[2] = {EstimateVelocity(c.signal[kPressureP], meas.period, half),
+                                   EstimateVelocity(c.signal[kPressureN], meas.period, half)};
+    double v_max = 0;
+    for (double v : c.velocity) v_max = std::max(v_max, std::fabs(v));
+    for (int row = 0; row < n; ++row) {
+      bool filling = false, venting = false;
+      for (const std::vector<double>& p : rate) filling |= p[row] > threshold, venting |= p[row] < -threshold;
+      r.member[0][row] |= filling;
+      r.member[1][row] |= venting;
+      r.member[2][row] |= !filling && !venting;
+      r.member[3][row] |= std::fabs(c.velocity[row]) < 0.05 * v_max;
+      for (int j = std::max(1, row - reversal_rows); j <= std::min(n - 1, row + reversal_rows); ++j) {
+        r.member[4][row] |= c.velocity[j - 1] * c.velocity[j] < 0 && std::fabs(c.velocity[j]) + std::fabs(c.velocity[j - 1]) > 0.1 * v_max;
+      }
+      r.member[5][row] |= std::fabs(c.signal[kPosition][row]) > 0.4 * c.stroke;
+      for (size_t k = 0; k < c.commands.size(); ++k) {
+        const int id = c.command_actuators[k];
+        if (!m->actuator_ctrllimited[id] || log::IsValveState(c.command_names[k])) continue;
+        const double lo = m->actuator_ctrlrange[2 * id], hi = m->actuator_ctrlrange[2 * id + 1];
+        r.member[6][row] |= std::fabs(c.commands[k][row] - 0.5 * (lo + hi)) > 0.25 * (hi - lo);
+      }
+    }
+  }
+  return r;
+}
+
+Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, const log::Log* heldout_log,
+                   const DiagnoseOptions& options) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Diagnosis out;
+  auto say = [&](const std::string& line) {
+    if (options.progress) options.progress(line);
+  };
+  std::string error;
+  ModelPtr nominal = LoadEditedModel(model_path, {}, &error);
+  if (!nominal) {
+    out.error = error;
+    return out;
+  }
+  const mjModel* m = nominal.get();
+  const double row_period = train_log.Period();
+  if (!(row_period > 0)) {
+    out.error = (train_log.source.empty() ? std::string("log") : train_log.source) + ": too short to fit: fewer than two rows";
+    return out;
+  }
+  const int horizon = std::max(2, static_cast<int>(std::lround(options.horizon_s / row_period)));
+  const int warmup = std::max(1, static_cast<int>(std::lround(options.warmup_s / row_period)));
+  const int min_rows = warmup + 2 * (horizon + 1);
+  std::optional<Measurements> train, held;
+  if (heldout_log) {
+    train = PrepareMeasurements(m, train_log, min_rows, &error);
+    if (train) held = PrepareMeasurements(m, *heldout_log, min_rows, &error);
+    out.split = "train: " + train_log.source + "; held out: " + heldout_log->source;
+  } else {
+    std::optional<Measurements> all = PrepareMeasurements(m, train_log, static_cast<int>(std::ceil(min_rows / 0.3)), &error);
+    if (all) {
+      const int cut = static_cast<int>(std::lround(options.train_fraction * all->rows()));
+      train = SliceRows(*all, 0, cut);
+      held = SliceRows(*all, cut, all->rows());
+      out.split = Fixed("train: the first %.0f %% of ", 100 * options.train_fraction) + train_log.source +
+                  Fixed(" (to t = %.4g s); held out: the rest", held->time.front());
+    }
+  }
+  if (!train || !held) {
+    out.error = error;
+    return out;
+  }
+  if (train->cylinders.size() != held->cylinders.size() || std::fabs(train->period - held->period) > 1e-9 * train->period) {
+    out.error = "the held-out log must have the training log's cylinders and row period";
+    return out;
+  }
+  out.train_rows = train->rows(), out.heldout_rows = held->rows();
+  GapOptions train_gap, held_gap;
+  train_gap.signal_scale = held_gap.signal_scale = SignalScales(*train);
+  train_gap.threads = held_gap.threads = options.threads;
+  train_gap.windows = MakeWindows(train->rows(), horizon, warmup);
+  held_gap.windows = MakeWindows(held->rows(), horizon, warmup);
+  for (int s = 0; s < train->signals(); ++s) out.signal_labels.push_back(train->SignalLabel(s));
+  out.signal_scale = train_gap.signal_scale;
+  out.regimes = ClassifyRegimes(m, *held);
+
+  Scenario scenario;
+  std::vector<std::string> found;
+  SensorModel sensors = SensorModel::Identity(*held);
+  out.before = Assess(m, sensors, *held, held_gap, out.regimes);
+  if (!out.before.full.error.empty()) {
+    out.error = "the model cannot predict the held-out log: " + out.before.full.error;
+    return out;
+  }
+  out.heldout_gap_before = out.before.full.gap;
+  say(Fixed("held-out gap of the model as given: %.4f", out.heldout_gap_before));
+
+  Evaluated base_held = out.before.full;
+  for (int round = 0; round < options.max_effects; ++round) {
+    Round r;
+    r.model_effects = found;
+    r.heldout_gap_before = base_held.gap;
+    r.effective_samples = EffectiveSamples(base_held, *held, held_gap);
+    const double rss0 = base_held.residuals.squaredNorm();
+    SensorModel base_sensors;
+    ModelPtr base_model = BuildScenario(model_path, scenario, *train, &base_sensors, &error);
+    if (!base_model) {
+      out.error = error;
+      return out;
+    }
+    std::vector<Candidate> candidates = CandidateLibrary(base_model.get(), *train);
+    std::vector<Candidate> tried;
+    for (Candidate& c : candidates) {
+      if (std::find(found.begin(), found.end(), c.effect) != found.end()) continue;
+      const auto tc = std::chrono::steady_clock::now();
+      say("round " + std::to_string(round + 1) + ": fitting " + c.effect + " (" + c.form + ")");
+      CandidateResult result;
+      result.effect = c.effect, result.form = c.form;
+      FitOptions fo;
+      fo.gap = train_gap;
+      fo.max_iterations = options.max_iterations;
+      fo.progress = options.progress;
+      CandidateFit fit = FitCandidate(model_path, scenario, c, *train, fo);
+      result.evaluations = fit.evaluations;
+      if (!fit.error.empty()) {
+        result.status = "failed: " + fit.error;
+      } else {
+        result.status = "fitted";
+        result.train_gap = fit.train_gap_after;
+        for (size_t i = 0; i < c.parameters.size(); ++i) {
+          result.parameters.push_back({c.parameters[i].name, c.parameters[i].unit, fit.values[i], fit.standard_errors[i],
+                                       fit.poorly_determined[i]});
+        }
+        SensorModel s;
+        ModelPtr with = BuildScenario(model_path, WithCandidate(scenario, c, fit.values), *held, &s, &error);
+        Evaluated ev = with ? Evaluate(with.get(), s, *held, held_gap) : Evaluated{};
+        if (!with || !ev.error.empty()) {
+          result.status = "failed: on the held-out log: " + (with ? ev.error : error);
+        } else {
+          result.heldout_gap = ev.gap;
+          result.improvement = (base_held.gap - ev.gap) / base_held.gap;
+          const double k = static_cast<double>(c.parameters.size());
+          result.delta_ic = r.effective_samples * std::log(ev.residuals.squaredNorm() / rss0) + k * std::log(r.effective_samples);
+          result.explains = result.delta_ic < options.max_delta_ic && result.improvement >= options.min_improvement;
+        }
+      }
+      result.seconds = Seconds(tc);
+      say("  " + c.effect + ": " + result.status +
+          (std::isnan(result.heldout_gap) ? std::string()
+                                          : Fixed(", held-out gap %.4f", result.heldout_gap) + Fixed(" (%+.1f %%)", -100 * result.improvement) +
+                                                Fixed(", dIC %.1f", result.delta_ic)) +
+          Fixed(", %.1f s", result.seconds));
+      r.ranking.push_back(result);
+      tried.push_back(c);
+    }
+    // rank: fitted by dIC, then failed ones
+    std::vector<size_t> order(r.ranking.size());
+    for (size_t i = 0; i < order.size(); ++i) order[i] = i;
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+      const bool fa = !std::isnan(r.ranking[a].delta_ic), fb = !std::isnan(r.ranking[b].delta_ic);
+      if (fa != fb) return fa;
+      return fa && r.ranking[a].delta_ic < r.ranking[b].delta_ic;
+    });
+    std::vector<CandidateResult> ranked;
+    std::vector<Candidate> ranked_candidates;
+    for (size_t i : order) ranked.push_back(r.ranking[i]), ranked_candidates.push_back(tried[i]);
+    r.ranking = ranked;
+    r.accepted = "none";
+    for (size_t i = 0; i < r.ranking.size(); ++i) {
+      if (!r.ranking[i].explains) continue;
+      const CandidateResult& best = r.ranking[i];
+      std::vector<double> values;
+      for (const ParameterResult& p : best.parameters) values.push_back(p.value);
+      scenario = WithCandidate(scenario, ranked_candidates[i], values);
+      found.push_back(best.effect);
+      out.parameters.insert(out.parameters.end(), best.parameters.begin(), best.parameters.end());
+      r.accepted = best.effect;
+      SensorModel s;
+      ModelPtr with = BuildScenario(model_path, scenario, *held, &s, &error);
+      base_held = Evaluate(with.get(), s, *held, held_gap);
+      break;
+    }
+    say("round " + std::to_string(round + 1) + " verdict: " + r.accepted);
+    const bool stop = r.accepted == "none";
+    out.rounds.push_back(std::move(r));
+    if (stop) break;
+  }
+  out.effects = found;
+  SensorModel final_sensors;
+  ModelPtr final_model = BuildScenario(model_path, scenario, *held, &final_sensors, &error);
+  if (!final_model) {
+    out.error = error;
+    return out;
+  }
+  out.after = Assess(final_model.get(), final_sensors, *held, held_gap, out.regimes);
+  out.heldout_gap_after = out.after.full.gap;
+  out.heldout = std::move(*held);
+  out.seconds = Seconds(t0);
+  return out;
+}
+
+}  // namespace pneumatic::diagnosis

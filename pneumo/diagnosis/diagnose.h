@@ -1,0 +1,113 @@
+// The sim-to-real diagnosis (issue 14): given a model and a closed-loop log of the real robot, say
+// where simulation and measurement part, which unmodelled effect explains it, and how far the gap
+// shrinks once that effect is in the model, proven on a held-out log.
+//
+// Where: short-horizon predictions (diagnosis/prediction.h) of the full model, of the pneumatic
+// side along the measured motion and of the mechanical side from the measured pressures; the gap
+// per signal, per regime and per window over time.
+// Which: every candidate of diagnosis/candidates.h is added to the model, fitted on the training
+// log (diagnosis/effect_fit.h) and scored on the held-out log by a Bayesian information criterion
+//   dIC = N_eff ln(RSS_c / RSS_0) + k ln N_eff
+// (Schwarz, Ann. Stat. 6, 1978), RSS the held-out sum of squared normalised residuals, k the
+// candidate's parameters and N_eff = N / tau the held-out residuals' effective number, tau their
+// integrated autocorrelation time (residuals of multi-step predictions are correlated). A
+// candidate explains the gap when dIC < max_delta_ic (-10: "very strong" evidence, Kass and
+// Raftery, JASA 90, 1995) and it shrinks the held-out gap by at least min_improvement; the best
+// such candidate is the verdict, and the search repeats with it in the model, so that two effects
+// present together are both found. No such candidate: `none`.
+// How far: the held-out gap before and after, per signal and as one number (effect_fit.h).
+#ifndef PNEUMATIC_DIAGNOSIS_DIAGNOSE_H_
+#define PNEUMATIC_DIAGNOSIS_DIAGNOSE_H_
+
+#include <functional>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "diagnosis/effect_fit.h"
+#include "diagnosis/measurements.h"
+#include "diagnosis/prediction.h"
+#include "diagnosis/residual_tests.h"
+#include "log_csv.h"
+
+namespace pneumatic::diagnosis {
+
+struct DiagnoseOptions {
+  double horizon_s = 0.2;  // prediction window
+  double warmup_s = 0.02;  // rows before each window that estimate the unmeasured states
+  // without a held-out log: the first train_fraction of the rows train, the rest is held out
+  double train_fraction = 0.7;
+  int threads = 2;
+  int max_effects = 2;            // effects searched one after the other
+  double max_delta_ic = -10;      // dIC a candidate must beat
+  double min_improvement = 0.10;  // ... and the held-out gap shrink it must reach (fraction)
+  int max_iterations = 12;        // Levenberg-Marquardt iterations per candidate
+  std::function<void(const std::string&)> progress;  // one line at a time, for stderr
+};
+
+constexpr double kNotComputed = std::numeric_limits<double>::quiet_NaN();
+
+struct ParameterResult {
+  std::string name, unit;
+  double value = 0, standard_error = 0;
+  std::string poorly_determined;
+};
+
+struct CandidateResult {
+  std::string effect, form;
+  std::string status;  // "fitted" or "failed: why"
+  std::vector<ParameterResult> parameters;
+  double train_gap = kNotComputed, heldout_gap = kNotComputed;
+  double improvement = kNotComputed;  // (gap_before - gap) / gap_before on the held-out log
+  double delta_ic = kNotComputed;
+  bool explains = false;  // passes both criteria
+  int evaluations = 0;
+  double seconds = 0;
+};
+
+struct Round {
+  std::vector<std::string> model_effects;  // effects in the model during this round
+  double heldout_gap_before = 0;
+  double effective_samples = 0;            // N_eff of the round's held-out residuals
+  std::vector<CandidateResult> ranking;    // by dIC, failed candidates last
+  std::string accepted;                    // the effect added, or "none"
+};
+
+// Per held-out row, which regimes it belongs to (a row may be in several).
+struct Regimes {
+  std::vector<std::string> names;
+  std::vector<std::vector<char>> member;  // [regime][row]
+};
+Regimes ClassifyRegimes(const mjModel* m, const Measurements& meas);
+
+struct Assessment {  // one model on the held-out log
+  Evaluated full;
+  Prediction pneumatic, mechanical;
+  std::vector<double> pneumatic_gap, mechanical_gap;  // per signal, NaN where that side does not predict
+  std::vector<double> regime_gap;                      // per regime
+  std::vector<double> window_time, window_gap;          // per window: start time (s) and gap
+  std::vector<Whiteness> whiteness;                    // per signal, of the full-prediction residuals
+  std::vector<double> input_correlation;               // per signal: largest |corr| with any command
+};
+
+struct Diagnosis {
+  std::string error;
+  std::vector<std::string> effects;  // found, in order; empty: none
+  std::vector<ParameterResult> parameters;  // of the effects found
+  double heldout_gap_before = 0, heldout_gap_after = 0;
+  std::vector<std::string> signal_labels;
+  std::vector<double> signal_scale;
+  std::vector<Round> rounds;
+  Regimes regimes;
+  Assessment before, after;
+  Measurements heldout;                    // as read, for plots
+  std::string split;                       // how train and held-out were chosen
+  int train_rows = 0, heldout_rows = 0;
+  double seconds = 0;
+};
+
+Diagnosis Diagnose(const std::string& model_path, const log::Log& train, const log::Log* heldout, const DiagnoseOptions& options);
+
+}  // namespace pneumatic::diagnosis
+
+#endif  // PNEUMATIC_DIAGNOSIS_DIAGNOSE_H_

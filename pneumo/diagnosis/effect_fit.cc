@@ -1,0 +1,296 @@
+#include "diagnosis/effect_fit.h"
+
+#include <cmath>
+#include <cstdio>
+#include <limits>
+
+#include <ceres/ceres.h>
+
+#include "identification/uncertainty.h"
+
+namespace pneumatic::diagnosis {
+namespace {
+
+// Applies `values` (one per parameter of c) on top of the scenario's own values.
+std::string ApplyValues(const Candidate& c, const std::vector<double>& values, mjModel* m, SensorModel* sensors) {
+  for (size_t i = 0; i < c.parameters.size(); ++i) {
+    if (std::string e = c.parameters[i].apply(m, sensors, values[i]); !e.empty()) return c.parameters[i].name + ": " + e;
+  }
+  return "";
+}
+
+// Ceres' view of a candidate's fit: one block z (value = z scale), the normalised residuals of the
+// valid rows. Remembers the last point, because Ceres evaluates the residuals of a step and then,
+// once it accepts it, residuals and Jacobian at the same point.
+class EffectCost : public ceres::CostFunction {
+ public:
+  EffectCost(const mjModel* base, const SensorModel& sensors, const Candidate& c, const Measurements& meas,
+             const FitOptions& options, int residuals)
+      : base_(base), sensors_(sensors), c_(c), meas_(meas), options_(options),
+        scratch_(mj_copyModel(nullptr, base), mj_deleteModel) {
+    set_num_residuals(residuals);
+    mutable_parameter_block_sizes()->push_back(static_cast<int>(c.parameters.size()));
+  }
+
+  // residuals at values (in units); "" or why not
+  std::string Residuals(const std::vector<double>& values, Eigen::VectorXd* r) const {
+    ++evaluations_;
+    mj_copyModel(scratch_.get(), base_);
+    SensorModel sensors = sensors_;
+    if (std::string e = ApplyValues(c_, values, scratch_.get(), &sensors); !e.empty()) return e;
+    Evaluated ev = diagnosis::Evaluate(scratch_.get(), sensors, meas_, options_.gap);
+    if (!ev.error.empty()) return ev.error;
+    if (ev.residuals.size() != num_residuals()) return "the number of predicted rows changed";
+    *r = ev.residuals;
+    return "";
+  }
+
+  bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
+    const size_t k = c_.parameters.size();
+    std::vector<double> values(k);
+    for (size_t i = 0; i < k; ++i) values[i] = parameters[0][i] * c_.parameters[i].scale;
+    Eigen::VectorXd r;
+    if (values == last_values_ && last_r_.size() == num_residuals()) {
+      r = last_r_;
+    } else if (std::string e = Residuals(values, &r); !e.empty()) {
+      last_error_ = e;
+      return false;
+    }
+    last_values_ = values, last_r_ = r;
+    Eigen::Map<Eigen::VectorXd>(residuals, num_residuals()) = r;
+    if (jacobians && jacobians[0]) {
+      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(jacobians[0], num_residuals(),
+                                                                                             static_cast<Eigen::Index>(k));
+      for (size_t i = 0; i < k; ++i) {
+        const EffectParameter& p = c_.parameters[i];
+        double h = options_.relative_step * p.scale;
+        if (values[i] + h > p.upper) h = -h;
+        std::vector<double> shifted = values;
+        shifted[i] += h;
+        Eigen::VectorXd rh;
+        if (std::string e = Residuals(shifted, &rh); !e.empty()) {
+          last_error_ = "finite difference of " + p.name + ": " + e;
+          return false;
+        }
+        J.col(static_cast<Eigen::Index>(i)) = (rh - r) / ((shifted[i] - values[i]) / p.scale);
+      }
+    }
+    return true;
+  }
+
+  int evaluations() const { return evaluations_; }
+  const std::string& last_error() const { return last_error_; }
+
+ private:
+  const mjModel* base_;
+  SensorModel sensors_;
+  const Candidate& c_;
+  const Measurements& meas_;
+  const FitOptions& options_;
+  ModelPtr scratch_;
+  mutable int evaluations_ = 0;
+  mutable std::vector<double> last_values_;
+  mutable Eigen::VectorXd last_r_;
+  mutable std::string last_error_;
+};
+
+class ProgressLine : public ceres::IterationCallback {
+ public:
+  ProgressLine(const Candidate& c, const FitOptions& o, const double* z) : c_(c), o_(o), z_(z) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    if (o_.progress) {
+      std::string text = "  " + c_.effect + " iteration " + std::to_string(s.iteration);
+      char value[64];
+      for (size_t i = 0; i < c_.parameters.size(); ++i) {
+        std::snprintf(value, sizeof(value), " %s=%.4g", c_.parameters[i].name.c_str(), z_[i] * c_.parameters[i].scale);
+        text += value;
+      }
+      o_.progress(text);
+    }
+    return ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const Candidate& c_;
+  const FitOptions& o_;
+  const double* z_;
+};
+
+}  // namespace
+
+std::vector<double> SignalScales(const Measurements& meas) {
+  std::vector<double> scales;
+  for (int s = 0; s < meas.signals(); ++s) {
+    const std::vector<double>& y = meas.Signal(s);
+    double mean = 0, magnitude = 0;
+    for (double v : y) mean += v, magnitude += std::fabs(v);
+    mean /= static_cast<double>(y.size());
+    double var = 0;
+    for (double v : y) var += (v - mean) * (v - mean);
+    scales.push_back(std::max(std::sqrt(var / static_cast<double>(y.size())), 1e-9 * magnitude / static_cast<double>(y.size()) + 1e-12));
+  }
+  return scales;
+}
+
+ModelPtr BuildScenario(const std::string& model_path, const Scenario& s, const Measurements& meas, SensorModel* sensors,
+                       std::string* error) {
+  ModelPtr m = LoadEditedModel(model_path, s.edits, error);
+  if (!m) return m;
+  *sensors = SensorModel::Identity(meas);
+  for (const auto& [apply, value] : s.values) {
+    if (std::string e = apply(m.get(), sensors, value); !e.empty()) {
+      *error = e;
+      return ModelPtr(nullptr, mj_deleteModel);
+    }
+  }
+  return m;
+}
+
+Scenario WithCandidate(const Scenario& base, const Candidate& c, const std::vector<double>& values) {
+  Scenario s = base;
+  s.edits.insert(s.edits.end(), c.edits.begin(), c.edits.end());
+  for (size_t i = 0; i < c.parameters.size(); ++i) s.values.emplace_back(c.parameters[i].apply, values[i]);
+  return s;
+}
+
+Evaluated Evaluate(const mjModel* m, const SensorModel& sensors, const Measurements& meas, const GapOptions& options) {
+  Evaluated ev;
+  ev.prediction = Predict(m, meas, sensors, options.windows, PredictionKind::kFull, options.threads);
+  if (!ev.prediction.error.empty()) {
+    ev.error = ev.prediction.error;
+    return ev;
+  }
+  std::vector<double> r;
+  double total = 0;
+  for (int s = 0; s < meas.signals(); ++s) {
+    const std::vector<double>& sim = ev.prediction.simulated[s];
+    const std::vector<double>& y = meas.Signal(s);
+    double sum = 0;
+    int n = 0;
+    for (int start : options.windows.starts) {
+      ev.series_starts.push_back(static_cast<int>(r.size()));
+      for (int row = start + 1; row <= start + options.windows.horizon_rows && row < meas.rows(); ++row) {
+        if (std::isnan(sim[row])) continue;
+        const double e = sim[row] - y[row];
+        if (!std::isfinite(e)) {
+          ev.error = "the prediction of " + meas.SignalLabel(s) + " is not finite at t = " + std::to_string(meas.time[row]) + " s";
+          return ev;
+        }
+        r.push_back(e / options.signal_scale[s]);
+        sum += e * e, ++n;
+      }
+    }
+    const double rms = n ? std::sqrt(sum / n) : 0;
+    ev.signal_rms.push_back(rms);
+    ev.signal_gap.push_back(rms / options.signal_scale[s]);
+    total += ev.signal_gap.back() * ev.signal_gap.back();
+  }
+  ev.gap = std::sqrt(total / std::max(meas.signals(), 1));
+  ev.residuals = Eigen::Map<Eigen::VectorXd>(r.data(), static_cast<Eigen::Index>(r.size()));
+  return ev;
+}
+
+CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, const Candidate& c, const Measurements& meas,
+                          const FitOptions& options) {
+  CandidateFit fit;
+  SensorModel sensors;
+  Scenario with_edits = base;
+  with_edits.edits.insert(with_edits.edits.end(), c.edits.begin(), c.edits.end());
+  ModelPtr m = BuildScenario(model_path, with_edits, meas, &sensors, &fit.error);
+  if (!m) return fit;
+  const size_t k = c.parameters.size();
+  std::vector<double> initial(k);
+  for (size_t i = 0; i < k; ++i) initial[i] = c.parameters[i].initial;
+  // the residual count: the rows the initial model predicts
+  {
+    ModelPtr copy(mj_copyModel(nullptr, m.get()), mj_deleteModel);
+    SensorModel s = sensors;
+    if (std::string e = ApplyValues(c, initial, copy.get(), &s); !e.empty()) {
+      fit.error = "the initial values: " + e;
+      return fit;
+    }
+    Evaluated ev = Evaluate(copy.get(), s, meas, options.gap);
+    if (!ev.error.empty()) {
+      fit.error = "the initial values: " + ev.error;
+      return fit;
+    }
+    fit.train_gap_before = ev.gap;
+    if (ev.residuals.size() == 0) {
+      fit.error = "no predicted rows";
+      return fit;
+    }
+    auto* cost = new EffectCost(m.get(), sensors, c, meas, options, static_cast<int>(ev.residuals.size()));
+    std::vector<double> z(k);
+    for (size_t i = 0; i < k; ++i) z[i] = initial[i] / c.parameters[i].scale;
+    ceres::Problem problem;
+    problem.AddResidualBlock(cost, nullptr, z.data());
+    for (size_t i = 0; i < k; ++i) {
+      problem.SetParameterLowerBound(z.data(), static_cast<int>(i), c.parameters[i].lower / c.parameters[i].scale);
+      problem.SetParameterUpperBound(z.data(), static_cast<int>(i), c.parameters[i].upper / c.parameters[i].scale);
+    }
+    ceres::Solver::Options solver;
+    solver.minimizer_type = ceres::TRUST_REGION;
+    solver.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+    solver.linear_solver_type = ceres::DENSE_QR;
+    solver.max_num_iterations = options.max_iterations;
+    solver.function_tolerance = 1e-4;
+    solver.parameter_tolerance = 1e-4;
+    solver.num_threads = 1;
+    solver.logging_type = ceres::SILENT;
+    solver.update_state_every_iteration = true;
+    ProgressLine progress(c, options, z.data());
+    solver.callbacks.push_back(&progress);
+    ceres::Solver::Summary summary;
+    ceres::Solve(solver, &problem, &summary);
+    fit.evaluations = cost->evaluations();
+    fit.iterations = static_cast<int>(summary.iterations.size());
+    if (summary.termination_type == ceres::FAILURE || summary.termination_type == ceres::USER_FAILURE ||
+        !std::isfinite(summary.final_cost)) {
+      fit.error = "the fit failed: " + (cost->last_error().empty() ? summary.message : cost->last_error());
+      return fit;
+    }
+    fit.converged = summary.termination_type == ceres::CONVERGENCE;
+    for (size_t i = 0; i < k; ++i) fit.values.push_back(z[i] * c.parameters[i].scale);
+    // residuals and Jacobian at the optimum (in the parameters' units), for the standard errors
+    Eigen::VectorXd r;
+    if (std::string e = cost->Residuals(fit.values, &r); !e.empty()) {
+      fit.error = "at the fitted values: " + e;
+      return fit;
+    }
+    fit.train_gap_after = std::sqrt(r.squaredNorm() / static_cast<double>(r.size()));
+    // the same normalisation as Evaluate's gap needs per-signal means; recompute it properly
+    {
+      ModelPtr at(mj_copyModel(nullptr, m.get()), mj_deleteModel);
+      SensorModel s2 = sensors;
+      ApplyValues(c, fit.values, at.get(), &s2);
+      fit.train_gap_after = Evaluate(at.get(), s2, meas, options.gap).gap;
+    }
+    Eigen::MatrixXd J(r.size(), static_cast<Eigen::Index>(k));
+    std::vector<std::string> names;
+    std::vector<double> scales;
+    for (size_t i = 0; i < k; ++i) {
+      const EffectParameter& p = c.parameters[i];
+      double h = options.relative_step * p.scale;
+      if (fit.values[i] + h > p.upper) h = -h;
+      std::vector<double> shifted = fit.values;
+      shifted[i] += h;
+      Eigen::VectorXd rh;
+      if (std::string e = cost->Residuals(shifted, &rh); !e.empty()) {
+        fit.error = "Jacobian at the fitted values: " + e;
+        return fit;
+      }
+      J.col(static_cast<Eigen::Index>(i)) = (rh - r) / (shifted[i] - fit.values[i]);
+      names.push_back(p.name);
+      scales.push_back(p.scale);
+    }
+    identification::UncertaintyOptions uo;
+    uo.series_starts = ev.series_starts;
+    identification::Uncertainty u = identification::EstimateUncertainty(J, r, names, fit.values, scales, uo);
+    fit.standard_errors = u.error.empty() ? u.standard_error : std::vector<double>(k, std::numeric_limits<double>::infinity());
+    fit.poorly_determined = u.error.empty() ? u.poorly_determined : std::vector<std::string>(k, u.error);
+    fit.evaluations = cost->evaluations();
+  }
+  return fit;
+}
+
+}  // namespace pneumatic::diagnosis

@@ -1,0 +1,87 @@
+// Fitting a candidate effect's parameters to a measured log (issue 14, "Which"), with the fitting
+// layer of identification: Levenberg-Marquardt (Ceres Solver) on the normalised residuals of the
+// short-horizon full-model predictions (diagnosis/prediction.h), standard errors from the
+// sandwich covariance with a Newey-West estimate (identification/uncertainty.h), since residuals
+// of multi-step predictions are correlated within a window.
+//
+// The residuals and the gap. For signal s (p_P, p_N or x of a cylinder) and predicted row i,
+//   r_s,i = (y_sim,s,i - y_meas,s,i) / scale_s,
+// scale_s the standard deviation of the measured signal in the training log, and
+//   gap = sqrt( mean over signals s of mean over rows i of r_s,i^2 )
+// the normalised RMS gap the diagnosis reports (README, "Diagnosis"): 0 for a perfect prediction
+// of noise-free data, about 1 for a prediction no better than the signal's mean.
+#ifndef PNEUMATIC_DIAGNOSIS_EFFECT_FIT_H_
+#define PNEUMATIC_DIAGNOSIS_EFFECT_FIT_H_
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Dense>
+
+#include "diagnosis/candidates.h"
+#include "diagnosis/measurements.h"
+#include "diagnosis/prediction.h"
+
+namespace pneumatic::diagnosis {
+
+// A model as a diagnosis builds it: the user's model with effects' edits, fitted values and the
+// sensor model.
+struct Scenario {
+  std::vector<ModelEdit> edits;  // MJCF edits of every effect added so far
+  // (apply, value) of every fitted parameter added so far, applied in order
+  std::vector<std::pair<std::function<std::string(mjModel*, SensorModel*, double)>, double>> values;
+};
+
+// The scenario's model and sensor model; null model and *error on failure.
+ModelPtr BuildScenario(const std::string& model_path, const Scenario& s, const Measurements& meas, SensorModel* sensors,
+                       std::string* error);
+
+struct GapOptions {
+  std::vector<double> signal_scale;  // per signal (SignalScales of the training log)
+  Windows windows;
+  int threads = 2;
+};
+
+// scale_s: the standard deviation of each measured signal (at least 1e-9 of its mean magnitude)
+std::vector<double> SignalScales(const Measurements& meas);
+
+struct Evaluated {
+  Prediction prediction;
+  std::vector<double> signal_gap;  // RMS of r_s per signal (normalised)
+  std::vector<double> signal_rms;  // RMS of y_sim - y_meas per signal, in its unit (Pa, m)
+  double gap = 0;
+  Eigen::VectorXd residuals;       // r over every predicted row, signal by signal
+  std::vector<int> series_starts;  // where each window of each signal starts in `residuals`
+  std::string error;
+};
+
+Evaluated Evaluate(const mjModel* m, const SensorModel& sensors, const Measurements& meas, const GapOptions& options);
+
+struct CandidateFit {
+  std::vector<double> values, standard_errors;  // per parameter, in its unit
+  std::vector<std::string> poorly_determined;   // per parameter, "" if well determined
+  double train_gap_before = 0, train_gap_after = 0;
+  int iterations = 0, evaluations = 0;
+  bool converged = false;
+  std::string error;  // non-empty: the fit failed (the candidate is reported as failed)
+};
+
+struct FitOptions {
+  GapOptions gap;
+  int max_iterations = 12;
+  // forward-difference step as a fraction of the parameter's scale
+  double relative_step = 1e-2;
+  std::function<void(const std::string&)> progress;
+};
+
+// Fits c's parameters on `meas` with the scenario `base` plus c's edits.
+CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, const Candidate& c, const Measurements& meas,
+                          const FitOptions& options);
+
+// `base` plus candidate c at `values`
+Scenario WithCandidate(const Scenario& base, const Candidate& c, const std::vector<double>& values);
+
+}  // namespace pneumatic::diagnosis
+
+#endif  // PNEUMATIC_DIAGNOSIS_EFFECT_FIT_H_

@@ -1,0 +1,186 @@
+#include "diagnosis/prediction.h"
+
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <thread>
+
+namespace pneumatic::diagnosis {
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// the true value behind a measurement, through the inverse of the sensor model
+double TrueValue(const Measurements& meas, const SensorModel& sensors, int signal, int row) {
+  return sensors.Truth(signal, meas.Signal(signal)[row]);
+}
+
+class WindowRunner {
+ public:
+  WindowRunner(const mjModel* m, const Measurements& meas, const SensorModel& sensors, PredictionKind kind)
+      : m_(m), meas_(meas), sensors_(sensors), kind_(kind), d_(mj_makeData(m), mj_deleteData) {}
+
+  // predicts rows start+1 .. start+horizon into `out`; "" or why not
+  std::string Run(int start, const Windows& w, std::vector<std::vector<double>>* out) {
+    mjData* d = d_.get();
+    mj_resetData(m_, d);
+    const int first = start - w.warmup_rows;
+    d->time = meas_.time[first];
+    for (int row = first; row < start + w.horizon_rows; ++row) {
+      if (row <= start) SetMeasuredState(row, /*velocity_scale=*/1.0);
+      for (size_t c = 0; c < meas_.cylinders.size(); ++c) {
+        const CylinderSeries& cyl = meas_.cylinders[c];
+        for (size_t k = 0; k < cyl.command_actuators.size(); ++k) d->ctrl[cyl.command_actuators[k]] = cyl.commands[k][row];
+      }
+      for (int k = 0; k < meas_.steps_per_row; ++k) {
+        const double s = static_cast<double>(k) / meas_.steps_per_row;
+        if (row >= start && kind_ == PredictionKind::kMechanical) HoldMeasuredPressures(row, s);
+        if (row >= start && kind_ == PredictionKind::kPneumatic) {
+          FollowMeasuredMotion(row, k);
+        } else {
+          mj_step(m_, d);
+        }
+      }
+      for (int warning : {mjWARN_BADQACC, mjWARN_BADQVEL, mjWARN_BADQPOS}) {
+        if (d->warning[warning].number > 0) {
+          return "the simulation diverged in the window starting at t = " + std::to_string(meas_.time[start]) + " s";
+        }
+      }
+      if (row >= start) Record(row + 1, out);
+    }
+    return "";
+  }
+
+ private:
+  void SetMeasuredState(int row, double velocity_scale) {
+    mjData* d = d_.get();
+    for (size_t c = 0; c < meas_.cylinders.size(); ++c) {
+      const CylinderSeries& cyl = meas_.cylinders[c];
+      const int base = kSignalsPerCylinder * static_cast<int>(c);
+      SetChamberPressure(m_, d, cyl.info, Chamber::kP, TrueValue(meas_, sensors_, base + kPressureP, row));
+      SetChamberPressure(m_, d, cyl.info, Chamber::kN, TrueValue(meas_, sensors_, base + kPressureN, row));
+      const double x = TrueValue(meas_, sensors_, base + kPosition, row);
+      d->qpos[m_->jnt_qposadr[cyl.joint]] = (x + cyl.info.x_mid) / cyl.gear;
+      d->qvel[m_->jnt_dofadr[cyl.joint]] = velocity_scale * cyl.velocity[row] / sensors_.gain[base + kPosition] / cyl.gear;
+    }
+  }
+
+  // chamber pressures on the straight line between the row's and the next row's measurements
+  void HoldMeasuredPressures(int row, double s) {
+    for (size_t c = 0; c < meas_.cylinders.size(); ++c) {
+      const CylinderSeries& cyl = meas_.cylinders[c];
+      const int base = kSignalsPerCylinder * static_cast<int>(c);
+      for (int k : {kPressureP, kPressureN}) {
+        const int next = std::min(row + 1, meas_.rows() - 1);
+        const double p = (1 - s) * TrueValue(meas_, sensors_, base + k, row) + s * TrueValue(meas_, sensors_, base + k, next);
+        SetChamberPressure(m_, d_.get(), cyl.info, k == kPressureP ? Chamber::kP : Chamber::kN, p);
+      }
+    }
+  }
+
+  // the piston on the cubic Hermite curve through the row's and the next row's measured x and
+  // estimated v, the smooth forces cancelled so that the step lands on the curve's next point (as
+  // pneumo/rollout.cc follows a log's motion)
+  void FollowMeasuredMotion(int row, int k) {
+    mjData* d = d_.get();
+    const double period = meas_.period, h = m_->opt.timestep;
+    const int next = std::min(row + 1, meas_.rows() - 1);
+    for (size_t c = 0; c < meas_.cylinders.size(); ++c) {
+      const CylinderSeries& cyl = meas_.cylinders[c];
+      const int base = kSignalsPerCylinder * static_cast<int>(c);
+      const double gain = sensors_.gain[base + kPosition];
+      const double x0 = TrueValue(meas_, sensors_, base + kPosition, row), x1 = TrueValue(meas_, sensors_, base + kPosition, next);
+      const double v0 = cyl.velocity[row] / gain, v1 = cyl.velocity[next] / gain;
+      auto hermite = [&](double s) {
+        const double s2 = s * s, s3 = s2 * s;
+        return (2 * s3 - 3 * s2 + 1) * x0 + (s3 - 2 * s2 + s) * period * v0 + (-2 * s3 + 3 * s2) * x1 + (s3 - s2) * period * v1;
+      };
+      const double a = hermite(static_cast<double>(k) / meas_.steps_per_row);
+      const double b = hermite(static_cast<double>(k + 1) / meas_.steps_per_row);
+      d->qpos[m_->jnt_qposadr[cyl.joint]] = (a + cyl.info.x_mid) / cyl.gear;
+      d->qvel[m_->jnt_dofadr[cyl.joint]] = (b - a) / h / cyl.gear;
+    }
+    mju_zero(d->qfrc_applied, m_->nv);
+    mj_forward(m_, d);
+    for (int i = 0; i < m_->nv; ++i) d->qfrc_applied[i] = -(d->qfrc_passive[i] - d->qfrc_bias[i] + d->qfrc_actuator[i]);
+    mj_step(m_, d);
+    mju_zero(d->qfrc_applied, m_->nv);
+  }
+
+  void Record(int row, std::vector<std::vector<double>>* out) {
+    if (row >= meas_.rows()) return;
+    const mjData* d = d_.get();
+    for (size_t c = 0; c < meas_.cylinders.size(); ++c) {
+      const CylinderSeries& cyl = meas_.cylinders[c];
+      const int base = kSignalsPerCylinder * static_cast<int>(c);
+      const double truth[3] = {ChamberPressure(m_, d, cyl.info, Chamber::kP), ChamberPressure(m_, d, cyl.info, Chamber::kN),
+                               cyl.gear * d->qpos[m_->jnt_qposadr[cyl.joint]] - cyl.info.x_mid};
+      for (int k = 0; k < kSignalsPerCylinder; ++k) {
+        const bool predicted = kind_ == PredictionKind::kFull || (kind_ == PredictionKind::kPneumatic && k != kPosition) ||
+                               (kind_ == PredictionKind::kMechanical && k == kPosition);
+        (*out)[base + k][row] = predicted ? sensors_.Measured(base + k, truth[k]) : kNaN;
+      }
+    }
+  }
+
+  const mjModel* m_;
+  const Measurements& meas_;
+  const SensorModel& sensors_;
+  PredictionKind kind_;
+  std::unique_ptr<mjData, void (*)(mjData*)> d_;
+};
+
+}  // namespace
+
+SensorModel SensorModel::Identity(const Measurements& meas) {
+  SensorModel s{std::vector<double>(meas.signals(), 0.0), std::vector<double>(meas.signals(), 1.0),
+                std::vector<double>(meas.signals(), 0.0)};
+  for (int i = 0; i < meas.signals(); ++i) {
+    if (i % kSignalsPerCylinder != kPosition) s.reference[i] = meas.cylinders[i / kSignalsPerCylinder].info.p_atm;
+  }
+  return s;
+}
+
+const char* PredictionKindName(PredictionKind kind) {
+  switch (kind) {
+    case PredictionKind::kFull: return "full";
+    case PredictionKind::kPneumatic: return "pneumatic";
+    case PredictionKind::kMechanical: return "mechanical";
+  }
+  return "";
+}
+
+Windows MakeWindows(int rows, int horizon_rows, int warmup_rows) {
+  Windows w;
+  w.horizon_rows = horizon_rows;
+  w.warmup_rows = warmup_rows;
+  for (int start = warmup_rows; start + horizon_rows < rows; start += horizon_rows) w.starts.push_back(start);
+  return w;
+}
+
+Prediction Predict(const mjModel* m, const Measurements& meas, const SensorModel& sensors, const Windows& windows,
+                   PredictionKind kind, int threads) {
+  Prediction p;
+  p.simulated.assign(meas.signals(), std::vector<double>(meas.rows(), kNaN));
+  std::vector<std::string> errors(windows.starts.size());
+  std::atomic<size_t> next{0};
+  auto work = [&] {
+    WindowRunner runner(m, meas, sensors, kind);
+    for (size_t i = next++; i < windows.starts.size(); i = next++) errors[i] = runner.Run(windows.starts[i], windows, &p.simulated);
+  };
+  std::vector<std::thread> pool;
+  const int extra = std::min<int>(std::max(threads, 1), static_cast<int>(windows.starts.size())) - 1;
+  for (int t = 0; t < extra; ++t) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+  for (const std::string& e : errors) {
+    if (!e.empty()) {
+      p.error = e;
+      break;
+    }
+  }
+  return p;
+}
+
+}  // namespace pneumatic::diagnosis

@@ -1,0 +1,67 @@
+// Short-horizon predictions of a measured closed-loop log (issue 14, "Where"). A closed-loop log
+// cannot be replayed open loop for long: without the unknown controller's feedback, any model
+// error makes the position drift away. So the log is cut into windows of a few tenths of a second;
+// each window restarts the model from the measured state and predicts the window's rows from its
+// commands, the project's own multi-step form of paper 000's pressure prediction (Section V.D):
+//
+//   full        pressures and motion simulated from the measured state at the window's start;
+//   pneumatic   pressures simulated with the pistons following the measured motion (paper 000
+//               Section II.5: given the volume and its rate, the pressure dynamics do not depend
+//               on the mechanics);
+//   mechanical  motion simulated with the chamber pressures held to the measured ones.
+//
+// The state at a window's start: measured p_P, p_N, x (through the inverse of the sensor model),
+// the estimated velocity; states no sensor gives (spool, armature, gas temperature, bristle) are
+// estimated by a warm-up: the model runs the rows before the window with its pressures and motion
+// reset to the measured ones at every row, so those states follow the logged commands.
+#ifndef PNEUMATIC_DIAGNOSIS_PREDICTION_H_
+#define PNEUMATIC_DIAGNOSIS_PREDICTION_H_
+
+#include <string>
+#include <vector>
+
+#include <mujoco/mujoco.h>
+
+#include "diagnosis/measurements.h"
+
+namespace pneumatic::diagnosis {
+
+// What a sensor reports for the true value y: reference + offset + gain (y - reference), per
+// signal (3 per cylinder), the reference being p_atm for a pressure (a gauge sensor's gain acts
+// on the gauge pressure; about 0 Pa offset and gain would be nearly collinear) and 0 for x. The
+// identity unless a sensor_bias candidate changes it (the project's own measurement model).
+struct SensorModel {
+  std::vector<double> offset, gain, reference;
+  static SensorModel Identity(const Measurements& meas);
+  double Measured(int signal, double truth) const { return reference[signal] + offset[signal] + gain[signal] * (truth - reference[signal]); }
+  double Truth(int signal, double measured) const { return reference[signal] + (measured - reference[signal] - offset[signal]) / gain[signal]; }
+};
+
+enum class PredictionKind { kFull, kPneumatic, kMechanical };
+const char* PredictionKindName(PredictionKind kind);  // "full", "pneumatic", "mechanical"
+
+struct Windows {
+  int horizon_rows = 0;  // rows predicted per window
+  int warmup_rows = 0;   // rows before each window that estimate the unmeasured states
+  std::vector<int> starts;  // the row each window starts from; it predicts rows start+1 .. start+horizon
+};
+
+// Windows of `horizon_rows` tiling rows [warmup, rows), back to back.
+Windows MakeWindows(int rows, int horizon_rows, int warmup_rows);
+
+// simulated[signal][row] as the sensors would report it; NaN in rows no window predicts (the
+// warm-up of the first window, each window's start row, a last partial window)
+struct Prediction {
+  std::vector<std::vector<double>> simulated;
+  std::string error;  // non-empty: the model diverged or refused the state; `simulated` is incomplete
+};
+
+// Predicts `meas` with m (attached) on up to `threads` threads (windows are independent; each
+// thread has its own mjData, and each window writes only its own rows: the result does not depend
+// on the thread count).
+Prediction Predict(const mjModel* m, const Measurements& meas, const SensorModel& sensors, const Windows& windows,
+                   PredictionKind kind, int threads);
+
+}  // namespace pneumatic::diagnosis
+
+#endif  // PNEUMATIC_DIAGNOSIS_PREDICTION_H_
