@@ -205,6 +205,28 @@ Rig Identified() {
 Rig WithFriction() {
   return OnOff().Set("coulomb_friction", "10").Frictionloss("20").Actuators(kFriction + OnOffValves() + Chambers());
 }
+// rig A with the energy equation in its chambers (gas temperature states "cyl.TP", "cyl.TN")
+Rig WithEnergy() {
+  return OnOff()
+      .Set("thermal_model", "energy")
+      .Set("wall_heat_conductance", "0.1")
+      .Actuators(OnOffValves() + Chambers() + Actuator("TP", kStatefulValve) + Actuator("TN", kStatefulValve));
+}
+// rig A with a line between each valve and its chamber (line pressure states "cyl.LP", "cyl.LN")
+Rig WithLine() {
+  return OnOff()
+      .Set("line_volume", "1e-6")
+      .Set("line_conductance", "1e-9")
+      .Actuators(OnOffValves() + Chambers() + Actuator("LP", kStatefulValve) + Actuator("LN", kStatefulValve));
+}
+// rig A with LuGre seal friction (its bristle state "cyl.z" after the chambers)
+Rig WithLuGre() {
+  return OnOff()
+      .Set("coulomb_friction", "10")
+      .Set("friction_model", "lugre")
+      .Set("static_friction", "20")
+      .Actuators(kFriction + OnOffValves() + Chambers() + Actuator("z", kStatefulValve));
+}
 
 // ---------------------------------------------------------------------------------------------
 // expectations
@@ -376,6 +398,10 @@ bool RigFor(const std::string& scope, Rig* rig) {
   else if (applies == "valve=onoff with flow=sanville or thin_plate") *rig = OnOffThinPlate();
   else if (applies == "pressure_model=identified") *rig = Identified();
   else if (applies == "cylinders with coulomb_friction") *rig = WithFriction();
+  else if (applies == "friction_model=lugre") *rig = WithLuGre();
+  else if (applies == "thermal_model=energy") *rig = WithEnergy();
+  else if (applies == "line_volume > 0") *rig = WithLine();
+  else if (applies == "flow=sanville or flow=thin_plate, or thermal_model=energy") *rig = Proportional();
   else return false;
   return true;
 }

@@ -28,7 +28,17 @@ ChamberModel MakeChamberModel(const CylinderConfig& c, int chamber) {
   m.p_exhaust = c.p_exhaust;
   m.p_atm = c.p_atm;
   m.atmosphere_leak = k.atmosphere_leak_conductance;
+  m.atmosphere_leak_area = k.atmosphere_leak_area;
+  // orifice leaks: paper 001 eq. 2 (Sanville 1971) with C_d = 1 and the critical ratio 0.528 of air
+  m.leak_law = SanvilleConstants(1.0, 0.528, c.heat_capacity_ratio, c.gas_constant, c.temperature);
   m.tolerance = c.step_tolerance * (c.p_supply - c.p_exhaust);
+  m.gamma = c.heat_capacity_ratio;
+  m.gas_constant = c.gas_constant;
+  m.temperature = c.temperature;
+  m.wall_conductance = k.wall_heat_conductance;
+  m.line_volume = k.line_volume;
+  m.line_conductance = k.line_conductance;
+  m.line = Iso6358Constants(0.433);
   return m;
 }
 
@@ -48,7 +58,9 @@ double ChamberMassFlow(const ChamberModel& k, const PortOpenings& o, double p) {
 
 double NetMassFlow(const ChamberModel& k, const PortOpenings& o, double p, double piston_leak, double p_other) {
   // laminar leaks, the project's own form: linear in the pressure difference
-  return ChamberMassFlow(k, o, p) + k.atmosphere_leak * (k.p_atm - p) + piston_leak * (p_other - p);
+  double q = ChamberMassFlow(k, o, p) + k.atmosphere_leak * (k.p_atm - p) + piston_leak * (p_other - p);
+  if (k.atmosphere_leak_area > 0) q += MassFlow(k.leak_law, k.atmosphere_leak_area, k.p_atm, p);
+  return q;
 }
 
 double PressureRate(const ChamberModel& k, const PortOpenings& o, double p, double volume,
@@ -60,6 +72,38 @@ double PressureRate(const ChamberModel& k, const PortOpenings& o, double p, doub
 
 namespace {
 
+// the root of an increasing function f on [lo, hi] (f(lo) <= 0 <= f(hi) expected; the nearer end
+// otherwise), by Illinois regula falsi to `tolerance` in x
+template <typename F>
+double IncreasingRoot(const F& f, double lo, double hi, double tolerance) {
+  double f_lo = f(lo), f_hi = f(hi);
+  if (f_lo >= 0) return lo;
+  if (f_hi <= 0) return hi;
+  int side = 0;
+  double width = hi - lo;
+  for (int i = 0; i < 300; ++i) {
+    double x = (lo * f_hi - hi * f_lo) / (f_hi - f_lo);
+    // a bisection wherever two secant steps have not halved the bracket (the laws' square roots)
+    if (i % 2 == 0) {
+      if (hi - lo > width / 2) x = (lo + hi) / 2;
+      width = hi - lo;
+    }
+    if (!(x > lo && x < hi)) x = (lo + hi) / 2;
+    double fx = f(x);
+    if (fx == 0 || hi - lo <= tolerance) return x;
+    if (fx > 0) {
+      hi = x, f_hi = fx;
+      if (side == 1) f_lo /= 2;
+      side = 1;
+    } else {
+      lo = x, f_lo = fx;
+      if (side == -1) f_hi /= 2;
+      side = -1;
+    }
+  }
+  return (lo + hi) / 2;
+}
+
 // the pressures a chamber can reach from p_compressed within a step: its ports', and the
 // pressures its leaks pull toward (p_atm, the other chamber's p_other)
 struct Range {
@@ -67,7 +111,7 @@ struct Range {
 };
 Range ReachableRange(const ChamberModel& k, double p_compressed, double piston_leak, double p_other) {
   Range r{std::min(p_compressed, k.p_exhaust), std::max(p_compressed, k.p_supply)};
-  if (k.atmosphere_leak > 0) r.lo = std::min(r.lo, k.p_atm), r.hi = std::max(r.hi, k.p_atm);
+  if (k.atmosphere_leak > 0 || k.atmosphere_leak_area > 0) r.lo = std::min(r.lo, k.p_atm), r.hi = std::max(r.hi, k.p_atm);
   if (piston_leak > 0) r.lo = std::min(r.lo, p_other), r.hi = std::max(r.hi, p_other);
   return r;
 }
@@ -224,10 +268,18 @@ LinearSystem System(int n, const ChamberModel k[], const PortOpenings o[], const
     PortFlow exhaust = Port(c.flow, o[i].exhaust, c.p_exhaust, p[i]);
     // the laminar leaks (the project's own form) are linear: their conductance is exact
     double flow = supply.flow + exhaust.flow + c.atmosphere_leak * (c.p_atm - p[i]) + piston_leak * (p_other - p[i]);
+    // the orifice leak to the atmosphere: one more port, at p_atm
+    PortFlow orifice = Port(c.leak_law, c.atmosphere_leak_area, c.p_atm, p[i]);
+    if (c.atmosphere_leak_area > 0) flow += orifice.flow;
     double travel = substep * d * flow;
     UseChordNearThePort(c.flow, o[i].supply, c.p_supply, p[i], travel, &supply);
     UseChordNearThePort(c.flow, o[i].exhaust, c.p_exhaust, p[i], travel, &exhaust);
-    s.b[i][i] = compression[i] - d * (supply.conductance + exhaust.conductance + c.atmosphere_leak + piston_leak);
+    double conductance = supply.conductance + exhaust.conductance + c.atmosphere_leak + piston_leak;
+    if (c.atmosphere_leak_area > 0) {
+      UseChordNearThePort(c.leak_law, c.atmosphere_leak_area, c.p_atm, p[i], travel, &orifice);
+      conductance += orifice.conductance;
+    }
+    s.b[i][i] = compression[i] - d * conductance;
     if (n == 2) s.b[i][1 - i] = d * piston_leak;
     s.rate[i] = compression[i] * p[i] + d * flow;
   }
@@ -327,6 +379,40 @@ bool LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* p
   return true;
 }
 
+void PistonOrificeExchange(const ChamberModel k[2], const double volume[2], double area, double t, double p[2]) {
+  if (area <= 0 || t <= 0) return;
+  const double a[2] = {k[0].polytropic_index * k[0].gas_rt / volume[0], k[1].polytropic_index * k[1].gas_rt / volume[1]};
+  const double tolerance = std::min(k[0].tolerance, k[1].tolerance);
+  // one backward Euler substep of length s from (p_P, p_N): the mass flow q from P to N
+  auto substep = [&](const double from[2], double s, double to[2]) {
+    double bound = k[0].leak_law.gain * area * std::max(from[0], from[1]);  // |Q| <= gain a max(p)
+    auto residual = [&](double q) {
+      return q - MassFlow(k[0].leak_law, area, std::max(from[0] - a[0] * s * q, 0.0), std::max(from[1] + a[1] * s * q, 0.0));
+    };
+    double q = bound > 0 ? IncreasingRoot(residual, -bound, bound, 1e-15 * bound) : 0.0;
+    to[0] = from[0] - a[0] * s * q, to[1] = from[1] + a[1] * s * q;
+  };
+  double tau = 0, step = t;
+  const double min_step = t / 4096;
+  while (tau < t) {
+    double s = std::min(step, t - tau);
+    double full[2], mid[2], half[2];
+    substep(p, s, full);
+    substep(p, s / 2, mid);
+    substep(mid, s / 2, half);
+    double error = std::max(std::fabs(half[0] - full[0]), std::fabs(half[1] - full[1]));
+    if (error > tolerance && step > min_step) {
+      step = std::max(s * std::max(0.2, 0.9 * std::sqrt(tolerance / error)), min_step);
+      continue;
+    }
+    // Richardson extrapolation: linear, so p_P / a_P + p_N / a_N stays
+    for (int i = 0; i < 2; ++i) p[i] = 2 * half[i] - full[i] > 0 ? 2 * half[i] - full[i] : half[i];
+    tau += s;
+    double grow = error > 0 ? 0.9 * std::sqrt(tolerance / error) : 4.0;
+    step = std::max(s * std::clamp(grow, 0.2, 4.0), min_step);
+  }
+}
+
 void PistonLeakExchange(const ChamberModel k[2], const double volume[2], double piston_leak, double t, double p[2]) {
   // dp_P/dt = -a (p_P - p_N), dp_N/dt = b (p_P - p_N), a = n_P r T G / V_P, b = n_N r T G / V_N:
   // the difference decays as exp(-(a + b) t) and b p_P + a p_N stays constant
@@ -352,13 +438,261 @@ double SupplyMassOverStep(const ChamberModel& k, const PortOpenings& o0, const P
   auto exhaust = [&](const PortOpenings& o, double p) {
     return o.exhaust > 0 ? -MassFlow(k.flow, o.exhaust, p, k.p_exhaust) : 0.0;
   };
-  auto leaks = [&](double p, double p_other) { return k.atmosphere_leak * (k.p_atm - p) + piston_leak * (p_other - p); };
+  auto leaks = [&](double p, double p_other) {
+    double q = k.atmosphere_leak * (k.p_atm - p) + piston_leak * (p_other - p);
+    if (k.atmosphere_leak_area > 0) q += MassFlow(k.leak_law, k.atmosphere_leak_area, k.p_atm, p);
+    return q;
+  };
   double by_supply = h / 2 * (supply(o0, p0) + supply(o1, p1));
   double by_exhaust = h / 2 * (exhaust(o0, p0) + exhaust(o1, p1));
   double by_leaks = h / 2 * (leaks(p0, p_other0) + leaks(p1, p_other1));
   double size = std::fabs(by_supply) + std::fabs(by_exhaust) + std::fabs(by_leaks);
   if (!(size > 0)) return 0;
   return by_supply + (net - by_supply - by_exhaust - by_leaks) * (std::fabs(by_supply) / size);
+}
+
+namespace {
+
+// the gas of a chamber as the conserved quantities of a backward Euler substep: mass and internal energy
+struct GasContent {
+  double mass = 0;    // kg
+  double energy = 0;  // J, c_v m T = p V / (gamma - 1)
+  double supply = 0;  // kg that entered through the supply port
+};
+
+// One backward Euler substep of length s of the energy equation (EnergyPressureStep) from `start`
+// in volume v0 to volume v1, openings o held. With the flows evaluated at the end pressure p1:
+//   m1 = m0 + s (in(p1) - out(p1))
+//   E1 = E0 + s (c_p H_in(p1) - c_p T1 out(p1) + hA (T_w - T1)) - p1 (v1 - v0),   T1 = p1 v1 / (r m1)
+// and E1 = p1 v1 / (gamma - 1). The residual E1(p1) - right-hand side increases with p1 (inflows fall,
+// outflows and T1 rise with it), so its root is unique; it is bracketed between a near-vacuum and the
+// highest pressure the flows and the compression can give, and found by Illinois regula falsi.
+GasContent EnergySubstep(const ChamberModel& k, const PortOpenings& o, double piston_leak, double piston_area,
+                         GasState other,
+                         GasState start, double v0, double v1, double s, GasState* end) {
+  const double gamma = k.gamma, r = k.gas_constant, t_ref = k.temperature;
+  const double cp = gamma * r / (gamma - 1);
+  const double m0 = start.p * v0 / (r * start.t), e0 = start.p * v0 / (gamma - 1);
+  // an outflow leaves at the chamber's temperature: the law rated at t_ref passes sqrt(t_ref / T) of it
+  const double out_scale = std::sqrt(t_ref / start.t);
+  const double other_scale = other.t > 0 ? std::sqrt(t_ref / other.t) : 1.0;
+  struct Flows {
+    double in = 0, out = 0, enthalpy_in = 0, supply = 0;  // kg/s, kg/s, kg K/s, kg/s
+  };
+  auto flows = [&](double p) {
+    Flows f;
+    auto add = [&](double into, double t_upstream_in, double in_scale) {
+      if (into >= 0) {
+        f.in += into * in_scale, f.enthalpy_in += into * in_scale * t_upstream_in;
+      } else {
+        f.out -= into * out_scale;
+      }
+    };
+    double supply = o.supply > 0 ? MassFlow(k.flow, o.supply, k.p_supply, p) : 0.0;
+    add(supply, t_ref, 1.0);
+    f.supply = supply >= 0 ? supply : supply * out_scale;
+    if (o.exhaust > 0) add(-MassFlow(k.flow, o.exhaust, p, k.p_exhaust), t_ref, 1.0);
+    // the laminar leaks (the project's own form), with the same upstream temperatures
+    if (k.atmosphere_leak > 0) add(k.atmosphere_leak * (k.p_atm - p), t_ref, 1.0);
+    if (k.atmosphere_leak_area > 0) add(MassFlow(k.leak_law, k.atmosphere_leak_area, k.p_atm, p), t_ref, 1.0);
+    if (piston_area > 0) add(MassFlow(k.leak_law, piston_area, other.p, p), other.t, other_scale);
+    if (piston_leak > 0) add(piston_leak * (other.p - p), other.t, other_scale);
+    return f;
+  };
+  struct Result {
+    double residual, mass, t;
+    Flows f;
+  };
+  auto evaluate = [&](double p) {
+    Result x;
+    x.f = flows(p);
+    x.mass = m0 + s * (x.f.in - x.f.out);
+    if (!(x.mass > 0)) {
+      x.residual = HUGE_VAL, x.t = HUGE_VAL;  // more gas leaves than there is: p1 lies below
+      return x;
+    }
+    x.t = p * v1 / (r * x.mass);
+    double rhs = e0 + s * (cp * x.f.enthalpy_in - cp * x.t * x.f.out + k.wall_conductance * (t_ref - x.t)) -
+                 p * (v1 - v0);
+    x.residual = p * v1 / (gamma - 1) - rhs;
+    return x;
+  };
+  // bracket: a near-vacuum below, and above the highest of the port and leak pressures and the
+  // adiabatic compression of the start, doubled until the residual is positive
+  double lo = 1e-9 * k.p_supply;
+  double hi = std::max({k.p_supply, k.p_exhaust, k.p_atm, piston_leak > 0 ? other.p : 0.0,
+                        start.p * std::pow(v0 / v1, gamma) * std::max(1.0, t_ref / start.t)});
+  Result r_lo = evaluate(lo), r_hi = evaluate(hi);
+  for (int i = 0; i < 60 && r_hi.residual <= 0; ++i) hi *= 2, r_hi = evaluate(hi);
+  Result best = r_lo;
+  double p = lo;
+  if (r_lo.residual >= 0) {
+    p = lo;
+  } else {
+    double f_lo = r_lo.residual, f_hi = r_hi.residual;
+    const double tolerance = 1e-12 * k.p_supply;
+    int side = 0;
+    p = hi, best = r_hi;
+    for (int i = 0; i < 200; ++i) {
+      double next = std::isfinite(f_hi) ? (lo * f_hi - hi * f_lo) / (f_hi - f_lo) : (lo + hi) / 2;
+      if (!(next > lo && next < hi)) next = (lo + hi) / 2;
+      Result x = evaluate(next);
+      p = next, best = x;
+      if (x.residual == 0 || hi - lo <= tolerance) break;
+      if (x.residual > 0) {
+        hi = next, f_hi = x.residual;
+        if (side == 1) f_lo /= 2;  // Illinois
+        side = 1;
+      } else {
+        lo = next, f_lo = x.residual;
+        if (side == -1 && std::isfinite(f_hi)) f_hi /= 2;
+        side = -1;
+      }
+    }
+  }
+  end->p = p;
+  end->t = best.t;
+  GasContent content;
+  content.mass = best.mass;
+  content.energy = p * v1 / (gamma - 1);
+  content.supply = s * best.f.supply;
+  return content;
+}
+
+}  // namespace
+
+GasState EnergyPressureStep(const ChamberModel& k, const PortSchedule& ports, const VolumePath& volume,
+                            double piston_leak, double piston_area, GasState other, GasState start, double h,
+                            double* supply_mass) {
+  const double min_substep = h / 4096;
+  const double r = k.gas_constant, gamma = k.gamma;
+  GasState gas = start;
+  double tau = 0, substep = h, supplied = 0;
+  SwitchInstants ends = ports.breakpoints();
+  ends.push_back(h);
+  for (double end : ends) {
+    while (tau < end) {
+      double s = std::min(substep, end - tau);
+      bool last = s >= end - tau;
+      double mid = tau + s / 2, next = last ? end : tau + s;
+      s = next - tau;
+      PortOpenings at_mid = ports.At(mid - 1e-12 * h), at_next = ports.At(next - 1e-12 * h);
+      double v_start = volume.At(tau), v_mid = volume.At(mid), v_next = volume.At(next);
+      GasState full_end, half_mid, half_end;
+      GasContent full = EnergySubstep(k, at_next, piston_leak, piston_area, other, gas, v_start, v_next, s, &full_end);
+      GasContent half = EnergySubstep(k, at_mid, piston_leak, piston_area, other, gas, v_start, v_mid, s / 2, &half_mid);
+      GasContent half2 =
+          EnergySubstep(k, at_next, piston_leak, piston_area, other, half_mid, v_mid, v_next, s / 2, &half_end);
+      // the error in pressure, and in temperature weighted by p / T (Pa)
+      double error = std::max(std::fabs(half_end.p - full_end.p),
+                              std::fabs(half_end.t - full_end.t) * half_end.p / half_end.t);
+      if (!std::isfinite(error) || (error > k.tolerance && substep > min_substep)) {
+        substep = std::max(s * (std::isfinite(error) ? std::max(0.2, 0.9 * std::sqrt(k.tolerance / error)) : 0.2),
+                           min_substep);
+        continue;
+      }
+      // Richardson extrapolation in the conserved quantities (second order); a result that would leave
+      // the gas without mass or energy keeps the two half steps
+      double mass = 2 * half2.mass - full.mass, energy = 2 * half2.energy - full.energy;
+      double supplied_here = 2 * (half.supply + half2.supply) - full.supply;
+      if (mass > 0 && energy > 0) {
+        gas.p = (gamma - 1) * energy / v_next;
+        gas.t = gas.p * v_next / (r * mass);
+      } else {
+        gas = half_end;
+        supplied_here = half.supply + half2.supply;
+      }
+      supplied += supplied_here;
+      tau = next;
+      double grow = error > 0 ? 0.9 * std::sqrt(k.tolerance / error) : 4.0;
+      substep = std::max(s * std::clamp(grow, 0.2, 4.0), min_substep);
+    }
+  }
+  if (supply_mass) *supply_mass = supplied;
+  return gas;
+}
+
+namespace {
+
+
+// one backward Euler substep of LinePressureStep: line and chamber pressures at its end, and the mass
+// that entered the line through the supply port
+struct LineSubstep {
+  double line = 0, p = 0, supply = 0;
+};
+LineSubstep LineBackwardEuler(const ChamberModel& k, const PortOpenings& o, double line0, double p0, double v0,
+                              double v1, double s) {
+  const double k_line = k.gas_rt / k.line_volume;
+  const double p_compressed = p0 * std::pow(v0 / v1, k.work_factor * k.polytropic_index);
+  const double c = s * k.polytropic_index * k.gas_rt / v1;
+  // unknown: the restriction's mass flow q (line -> chamber) over the substep. For a given q the chamber's
+  // end pressure is explicit, p1 = (p_compressed + c q + c G_atm p_atm) / (1 + c G_atm), and the line's is
+  // the root of p_L = p_L0 + s k_L (Q_valve(p_L) - q), between the line's start, the ports' pressures and
+  // where q alone would take it; the residual q - Q_r(p_L(q), p1(q)) increases with q. Solving for q (not
+  // p1) keeps the restriction's square root out of the amplified chamber residual, and gives
+  // V_L dp_L + V dp = 0 exactly for an isothermal chamber at fixed volume (the gas moved is q s either way).
+  auto chamber_at = [&](double q) {
+    return (p_compressed + c * q + c * k.atmosphere_leak * k.p_atm) / (1 + c * k.atmosphere_leak);
+  };
+  auto line_at = [&](double q) {
+    auto residual = [&](double line) { return line - line0 - s * k_line * (ChamberMassFlow(k, o, line) - q); };
+    double shifted = line0 - s * k_line * q;
+    return IncreasingRoot(residual, std::min({line0, k.p_exhaust, shifted}), std::max({line0, k.p_supply, shifted}),
+                          1e-13 * k.p_supply);
+  };
+  const double highest = std::max({line0, k.p_supply, p_compressed, k.p_atm, p0});
+  const double bound = k.line_conductance * highest;  // |Q_r| <= C_r max(p_L, p)
+  auto consistency = [&](double q) {
+    return q - MassFlow(k.line, k.line_conductance, line_at(q), std::max(chamber_at(q), 0.0));
+  };
+  LineSubstep out;
+  double q = IncreasingRoot(consistency, -bound, bound, 1e-15 * bound);
+  out.p = chamber_at(q);
+  out.line = line_at(q);
+  out.supply = o.supply > 0 ? s * MassFlow(k.flow, o.supply, k.p_supply, out.line) : 0.0;
+  return out;
+}
+
+}  // namespace
+
+void LinePressureStep(const ChamberModel& k, const PortSchedule& ports, const VolumePath& volume, double line0,
+                      double p0, double h, double* line1, double* p1, double* supply_mass) {
+  const double min_substep = h / 4096;
+  double line = line0, p = p0, tau = 0, substep = h, supplied = 0;
+  SwitchInstants ends = ports.breakpoints();
+  ends.push_back(h);
+  for (double end : ends) {
+    while (tau < end) {
+      double s = std::min(substep, end - tau);
+      bool last = s >= end - tau;
+      double mid = tau + s / 2, next = last ? end : tau + s;
+      s = next - tau;
+      PortOpenings at_mid = ports.At(mid - 1e-12 * h), at_next = ports.At(next - 1e-12 * h);
+      double v_start = volume.At(tau), v_mid = volume.At(mid), v_next = volume.At(next);
+      LineSubstep full = LineBackwardEuler(k, at_next, line, p, v_start, v_next, s);
+      LineSubstep half = LineBackwardEuler(k, at_mid, line, p, v_start, v_mid, s / 2);
+      LineSubstep half2 = LineBackwardEuler(k, at_next, half.line, half.p, v_mid, v_next, s / 2);
+      double error = std::max(std::fabs(half2.line - full.line), std::fabs(half2.p - full.p));
+      if (error > k.tolerance && substep > min_substep) {
+        substep = std::max(s * std::max(0.2, 0.9 * std::sqrt(k.tolerance / error)), min_substep);
+        continue;
+      }
+      // Richardson extrapolation (linear: keeps p_L V_L + p V of an isothermal chamber at fixed volume)
+      double next_line = 2 * half2.line - full.line, next_p = 2 * half2.p - full.p;
+      if (next_line > 0 && next_p > 0) {
+        line = next_line, p = next_p;
+        supplied += 2 * (half.supply + half2.supply) - full.supply;
+      } else {
+        line = half2.line, p = half2.p;
+        supplied += half.supply + half2.supply;
+      }
+      tau = next;
+      double grow = error > 0 ? 0.9 * std::sqrt(k.tolerance / error) : 4.0;
+      substep = std::max(s * std::clamp(grow, 0.2, 4.0), min_substep);
+    }
+  }
+  *line1 = line, *p1 = p;
+  if (supply_mass) *supply_mass = supplied;
 }
 
 SteadyStateAndRate IdentifiedModel(const IdentifiedParams& c, double u, double v, double v_rate) {

@@ -19,7 +19,18 @@ struct ChamberModel {
   double p_supply = 0, p_exhaust = 0;  // Pa abs
   double p_atm = 0;                    // Pa abs, outside the cylinder
   double atmosphere_leak = 0;          // kg/(s Pa): laminar leak G (p - p_atm) out of the chamber
+  double atmosphere_leak_area = 0;     // m^2: orifice leak to p_atm through `leak_law`
+  FlowLawConstants leak_law;           // orifice leaks: paper 001 eq. 2 (Sanville) with C_d 1, b 0.528
   double tolerance = 0;                // Pa, local error allowed per substep
+  // thermal_model=energy (EnergyPressureStep)
+  double gamma = 1.4;              // ratio of specific heats
+  double gas_constant = 287;       // r, J/(kg K)
+  double temperature = 293.15;     // K: of the supply, the exhaust, the atmosphere and the wall
+  double wall_conductance = 0;     // h A, W/K
+  // line_volume > 0 (LinePressureStep): the tube between the valve ports and the chamber
+  double line_volume = 0;          // m^3
+  double line_conductance = 0;     // kg/(s Pa), ISO 6358 C rho0 of the restriction into the chamber
+  FlowLawConstants line;           // ISO 6358, b = 0.433 (paper 002 eq. 4)
 };
 
 ChamberModel MakeChamberModel(const CylinderConfig& c, int chamber);
@@ -81,6 +92,13 @@ double PhysicalPressureStep(const ChamberModel& k, const PortSchedule& ports, co
 bool LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* ports[], const VolumePath volume[],
                             double piston_leak, const double p0[], double h, double p1[]);
 
+// An orifice leak of `area` across the piston (leak_law of k[0]) alone over a time t, chambers at fixed
+// volumes: dp_P/dt = -a_P Q(p_P, p_N), dp_N/dt = a_N Q, a = n r T / V. Backward Euler substeps in the mass
+// flow q over the substep (q - Q(p_P0 - a_P s q, p_N0 + a_N s q) increases with q), step doubling with
+// Richardson extrapolation to k[0].tolerance: p_P / a_P + p_N / a_N (the gas, n = 1) is kept exactly
+// (the project's own method). The steps take it in two halves around the valve flows (Strang splitting).
+void PistonOrificeExchange(const ChamberModel k[2], const double volume[2], double area, double t, double p[2]);
+
 // The leak across the piston alone over a time t, solved exactly (the project's own
 // laminar form, chambers at fixed volumes): p_P - p_N decays as exp(-(a + b) t) with
 // a = n_P r T G / V_P and b = n_N r T G / V_N, and b p_P + a p_N (the gas exchanged)
@@ -97,6 +115,48 @@ void PistonLeakExchange(const ChamberModel k[2], const double volume[2], double 
 double SupplyMassOverStep(const ChamberModel& k, const PortOpenings& o0, const PortOpenings& o1,
                           const VolumePath& volume, double p0, double p1, double piston_leak, double p_other0,
                           double p_other1, double h);
+
+// thermal_model=energy: the state of a chamber's gas
+struct GasState {
+  double p = 0;  // Pa abs
+  double t = 0;  // K
+};
+
+// thermal_model=energy: pressure and temperature at the end of a step of length h from `start`.
+// The energy equation of an open chamber (Richer and Hurmuzlu 2000, J. Dyn. Sys. Meas. Control
+// 122:416, eqs. 1-7), with m = p V / (r T), written for the mass m and the internal energy
+// E = c_v m T = p V / (gamma - 1):
+//   dm/dt = sum of the inflows - sum of the outflows
+//   dE/dt = c_p sum(inflow T_upstream) - c_p T outflows + hA (T_wall - T) - p dV/dt
+// which is dp/dt = (gamma r / V)(mdot_in T_in - mdot_out T) - gamma p Vdot / V + (gamma - 1) hA (T_w - T) / V.
+// Inflows come from the supply, the exhaust and the atmosphere at k.temperature, and across the
+// piston from the other chamber at `other` (held over the step); outflows leave at the chamber's T.
+// Each port's law (paper 001 eq. 2, paper 002 eq. 4, paper 000 eq. 1) is rated at k.temperature
+// and scaled by sqrt(k.temperature / T_upstream) (a nozzle passes mass as 1/sqrt(T0)); for an
+// outflow T_upstream is the chamber's temperature at the start of each substep.
+// Each substep is backward Euler in (m, E): one increasing residual in p, bracketed and solved by
+// Illinois regula falsi; step doubling with Richardson extrapolation (linear in m and E, so it keeps
+// every linear balance) gives second order and the error estimate that adapts the substep to
+// k.tolerance (temperature errors weighted by p/T); the step splits at valve switching instants.
+// *supply_mass (if not null) gets the mass that entered through the supply port (kg).
+GasState EnergyPressureStep(const ChamberModel& k, const PortSchedule& ports, const VolumePath& volume,
+                            double piston_leak, double piston_area, GasState other, GasState start, double h,
+                            double* supply_mass);
+
+// line_volume > 0: the pressures of the line and of its chamber at the end of a step of length h.
+// The line (volume V_L, isothermal at the cylinder's temperature T: a thin tube's wall holds its gas
+// near ambient) takes the valve ports' flows, and passes Q_r to the chamber through its restriction
+// (ISO 6358, paper 002 eq. 4, b = 0.433):
+//   dp_L/dt = (r T / V_L) (Q_valve(p_L) - Q_r(p_L, p))
+//   dp/dt   = n r T (Q_r(p_L, p) + Q_leak(p)) / V - alpha n p (dV/dt) / V     (paper 000 eq. 4a)
+// Each substep is backward Euler (the chamber in y = p V^(alpha n), so the compression is exact): for
+// a chamber pressure p1 the line's equation has one root p_L1(p1), and the chamber's residual in p1
+// with p_L1(p1) inserted is increasing, so both are bracketed and solved by Illinois regula falsi
+// (nested). Step doubling with Richardson extrapolation makes it second order and adapts the substep
+// to k.tolerance; the step splits at valve switching instants. (The project's own method.)
+// *supply_mass (if not null) gets the mass that entered the line through the supply port (kg).
+void LinePressureStep(const ChamberModel& k, const PortSchedule& ports, const VolumePath& volume, double line0,
+                      double p0, double h, double* line1, double* p1, double* supply_mass);
 
 // paper 000 eq. (10): steady-state pressure s (Pa abs) and rate r (1/s) at
 // command u (V), volume sensor v = x and its rate

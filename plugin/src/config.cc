@@ -30,6 +30,10 @@ enum class AppliesTo {
   kThinPlate,        // flow=thin_plate
   kIdentified,       // pressure_model=identified
   kFriction,         // coulomb_friction given
+  kLuGre,            // friction_model=lugre
+  kGamma,            // flow=sanville or thin_plate, or thermal_model=energy
+  kEnergy,           // thermal_model=energy
+  kLine,             // line_volume > 0 (this chamber)
 };
 
 // one row of the table: documentation and checks in one place
@@ -75,8 +79,8 @@ const Param kParams[] = {
      "gas temperature T, the same in supply, chambers and exhaust", CYL(temperature)},
     {"gas_constant", Scope::kCylinder, AppliesTo::kAll, "J/(kg K)", "287", nullptr, 50, 5000, false, false,
      "specific gas constant r of the gas (R/M): 287 for air, 2077 for helium", CYL(gas_constant)},
-    {"heat_capacity_ratio", Scope::kCylinder, AppliesTo::kAreaLaw, "", "1.4", nullptr, 1, 1.7, true, false,
-     "ratio of specific heats gamma (kappa) in the sanville and thin-plate flow laws", CYL(heat_capacity_ratio)},
+    {"heat_capacity_ratio", Scope::kCylinder, AppliesTo::kGamma, "", "1.4", nullptr, 1, 1.7, true, false,
+     "ratio of specific heats gamma (kappa) in the sanville and thin-plate flow laws, and in the energy equation of thermal_model=energy", CYL(heat_capacity_ratio)},
     {"compressibility", Scope::kCylinder, AppliesTo::kThinPlate, "", "1", nullptr, 0.5, 1.5, false, false,
      "compressibility factor Z of the thin-plate law (paper 000 Table II: 0.99)", CYL(compressibility)},
     {"spool_gain", Scope::kCylinder, AppliesTo::kProportional53, "m/V", "0.00025", nullptr, 0, 0.01, true, false,
@@ -89,18 +93,34 @@ const Param kParams[] = {
      "orifice area per spool displacement w (paper 001 Table I: 22.6 mm^2/mm)", CYL(orifice_gradient)},
     {"deadband", Scope::kCylinder, AppliesTo::kProportional53, "", "0", nullptr, 0, 1, false, true,
      "flow deadband as a fraction of the full spool range 2 k_v u_max (paper 001: 0.12)", CYL(deadband)},
+    {"deadband_voltage", Scope::kCylinder, AppliesTo::kPerChamber, "V", "0", nullptr, 0, 100, false, false,
+     "spool deadband of each chamber's valve: the supply port opens only above U_c + deadband_voltage and the exhaust only below U_r - deadband_voltage (paper 000 eq. 3 with the seals shifted)", CYL(deadband_voltage)},
     {"delay_open", Scope::kCylinder, AppliesTo::kOnOff, "s", "0", nullptr, 0, 0.1, false, false,
      "opening delay of each on/off valve (paper 002: 1.3e-3); the armature model that realises it is the project's own", CYL(delay_open)},
     {"delay_close", Scope::kCylinder, AppliesTo::kOnOff, "s", "0", nullptr, 0, 0.1, false, false,
      "closing delay of each on/off valve (paper 002: 0.2e-3); the armature model that realises it is the project's own", CYL(delay_close)},
     {"pwm_frequency", Scope::kCylinder, AppliesTo::kPwm, "Hz", "0", nullptr, 0, 1e5, false, false,
      "PWM carrier frequency; 0 = the averaged model of paper 003 eq. 14", CYL(pwm_frequency)},
+    {"thermal_model", Scope::kCylinder, AppliesTo::kAll, "", "polytropic", "polytropic energy", 0, 0, false, false,
+     "gas temperature: polytropic chambers at a fixed temperature (default), or the energy equation of an open chamber with heat exchange with the wall at temperature (Richer and Hurmuzlu 2000; state actuators <name>.TP, <name>.TN; needs wall_heat_conductance)", nullptr},
     {"coulomb_friction", Scope::kCylinder, AppliesTo::kAll, "N (N m)", "none", nullptr, 0, 1e6, false, false,
      "sliding seal friction; static friction is the transmission's frictionloss (needs actuator <name>.friction)", nullptr},
     {"stribeck_velocity", Scope::kCylinder, AppliesTo::kFriction, "m/s (rad/s)", "0.01", nullptr, 0, 10, true, false,
      "v_s of the project's own Stribeck curve: friction falls from the static to the Coulomb level over this speed", CYL(stribeck_velocity)},
+    {"friction_model", Scope::kCylinder, AppliesTo::kAll, "", "coulomb_stribeck", "coulomb_stribeck lugre", 0, 0, false, false,
+     "seal friction: the Stribeck curve on top of the transmission's frictionloss (default), or the LuGre bristle model of Canudas de Wit et al. 1995 (state actuator <name>.z, frictionloss 0, needs coulomb_friction and static_friction)", nullptr},
+    {"static_friction", Scope::kCylinder, AppliesTo::kLuGre, "N (N m)", nullptr, nullptr, 0, 1e6, true, false,
+     "F_s of LuGre: the breakaway level; g(v) = F_c + (F_s - F_c) exp(-(v/v_s)^2) (Canudas de Wit et al. 1995 eq. 3); at least coulomb_friction", CYL(static_friction)},
+    {"bristle_stiffness", Scope::kCylinder, AppliesTo::kLuGre, "N/m (N m/rad)", "1e5", nullptr, 0, 1e9, true, false,
+     "sigma0 of LuGre: the presliding stiffness; a force F < F_s holds the piston after a creep of about F/sigma0 (1e5: 0.2 mm at 20 N)", CYL(bristle_stiffness)},
+    {"bristle_damping", Scope::kCylinder, AppliesTo::kLuGre, "N s/m (N m s/rad)", "300", nullptr, 0, 1e6, false, false,
+     "sigma1 of LuGre: bristle damping (the paper's choice 2 sqrt(sigma0 m) needs the moving mass; 300 damps sigma0 = 1e5 on about 0.2 kg)", CYL(bristle_damping)},
+    {"viscous_friction", Scope::kCylinder, AppliesTo::kLuGre, "N s/m (N m s/rad)", "0", nullptr, 0, 1e6, false, false,
+     "sigma2 of LuGre: viscous friction, F = sigma0 z + sigma1 dz/dt + sigma2 v", CYL(viscous_friction)},
     {"piston_leak_conductance", Scope::kCylinder, AppliesTo::kAll, "kg/(s Pa)", "0", nullptr, 0, 1e-6, false, false,
      "laminar leakage across the piston seal, mass flow G (p_P - p_N) from P to N (the project's own form)", CYL(piston_leak_conductance)},
+    {"piston_leak_area", Scope::kCylinder, AppliesTo::kAll, "m^2", "0", nullptr, 0, 1e-4, false, false,
+     "orifice leakage across the piston seal: the compressible orifice law of paper 001 eq. 2 (Sanville 1971) with C_d = 1 and critical ratio 0.528", CYL(piston_leak_area)},
     {"supply", Scope::kCylinder, AppliesTo::kAll, "", "none", nullptr, 0, 0, false, false,
      "supply reservoir feeding the valves' supply ports: the name of a <text name=\"pneumatic_reservoir:NAME\"> element (its keys below); none = the compressor at p_supply feeds them directly", nullptr, true},
     {"step", Scope::kCylinder, AppliesTo::kAll, "", "linearized", "linearized exact explicit", 0, 0, false, false,
@@ -113,11 +133,19 @@ const Param kParams[] = {
     {"dead_volume", Scope::kChamber, AppliesTo::kAll, "m^3", nullptr, nullptr, 0, 1, true, false,
      "chamber volume at the end of its stroke, ports and tube included", CHAMBER(dead_volume)},
     {"polytropic_index", Scope::kChamber, AppliesTo::kAll, "", "1.4", nullptr, 1, 1.7, false, false,
-     "n: a sealed chamber follows p V^n = const (paper 002: 1.2; adiabatic air: 1.4)", CHAMBER(polytropic_index)},
+     "n: a sealed chamber follows p V^n = const (paper 002: 1.2; adiabatic air: 1.4); not used with thermal_model=energy", CHAMBER(polytropic_index)},
     {"work_factor", Scope::kChamber, AppliesTo::kAll, "", "1", nullptr, 0, 2, true, false,
-     "alpha on the piston-work term of paper 001 eq. 1 (0.89 there); 1 elsewhere", CHAMBER(work_factor)},
+     "alpha on the piston-work term of paper 001 eq. 1 (0.89 there); 1 elsewhere; not used with thermal_model=energy", CHAMBER(work_factor)},
+    {"wall_heat_conductance", Scope::kChamber, AppliesTo::kEnergy, "W/K", nullptr, nullptr, 0, 1000, false, false,
+     "h A: heat flow hA (T_wall - T) from the wall (at temperature) into the gas (Richer and Hurmuzlu 2000); 0 = adiabatic", CHAMBER(wall_heat_conductance)},
+    {"line_volume", Scope::kChamber, AppliesTo::kAll, "m^3", "0", nullptr, 0, 1, false, false,
+     "volume of the tube between the valve and the chamber, an isothermal state at temperature (state actuator <name>.LP / <name>.LN); 0 = no line, the valve feeds the chamber", CHAMBER(line_volume)},
+    {"line_conductance", Scope::kChamber, AppliesTo::kLine, "kg/(s Pa)", nullptr, nullptr, 0, 1e-5, true, false,
+     "sonic conductance C rho0 of the restriction between the line and the chamber, ISO 6358 with b = 0.433 as paper 002 eq. 4", CHAMBER(line_conductance)},
     {"atmosphere_leak_conductance", Scope::kChamber, AppliesTo::kAll, "kg/(s Pa)", "0", nullptr, 0, 1e-6, false, false,
      "laminar leakage to the atmosphere, mass flow G (p - p_atm) out of the chamber (the project's own form)", CHAMBER(atmosphere_leak_conductance)},
+    {"atmosphere_leak_area", Scope::kChamber, AppliesTo::kAll, "m^2", "0", nullptr, 0, 1e-4, false, false,
+     "orifice leakage to the atmosphere: the compressible orifice law of paper 001 eq. 2 (Sanville 1971) with C_d = 1 and critical ratio 0.528", CHAMBER(atmosphere_leak_area)},
     {"pressure_model", Scope::kChamber, AppliesTo::kAll, "", "physical", "physical identified", 0, 0, false, false,
      "physical flow and chamber model, or the identified model of paper 000 eq. 10", nullptr},
     {"flow", Scope::kChamber, AppliesTo::kAll, "", "derived", "iso6358 sanville thin_plate", 0, 0, false, false,
@@ -290,6 +318,10 @@ bool Applies(AppliesTo a, const CylinderConfig& c, const ChamberConfig* k) {
       return c.chamber[0].flow == FlowLaw::kThinPlate || c.chamber[1].flow == FlowLaw::kThinPlate;
     case AppliesTo::kIdentified: return k && k->model == PressureModel::kIdentified;
     case AppliesTo::kFriction: return c.coulomb_friction.has_value();
+    case AppliesTo::kLuGre: return c.friction_model == FrictionModel::kLuGre;
+    case AppliesTo::kGamma: return c.thermal_model == ThermalModel::kEnergy || Applies(AppliesTo::kAreaLaw, c, k);
+    case AppliesTo::kEnergy: return c.thermal_model == ThermalModel::kEnergy;
+    case AppliesTo::kLine: return k && k->line_volume > 0;
   }
   return false;
 }
@@ -308,6 +340,10 @@ const char* AppliesText(AppliesTo a) {
     case AppliesTo::kThinPlate: return "flow=thin_plate";
     case AppliesTo::kIdentified: return "pressure_model=identified";
     case AppliesTo::kFriction: return "cylinders with coulomb_friction";
+    case AppliesTo::kLuGre: return "friction_model=lugre";
+    case AppliesTo::kGamma: return "flow=sanville or flow=thin_plate, or thermal_model=energy";
+    case AppliesTo::kEnergy: return "thermal_model=energy";
+    case AppliesTo::kLine: return "line_volume > 0";
   }
   return "";
 }
@@ -363,6 +399,14 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
   if (lookup(raw.cylinder, *FindParam("step"), &text_value)) {
     if (!parser.Choice(*FindParam("step"), "step", text_value, &index)) return std::nullopt;
     c.step = static_cast<ChamberStep>(index);
+  }
+  if (lookup(raw.cylinder, *FindParam("friction_model"), &text_value)) {
+    if (!parser.Choice(*FindParam("friction_model"), "friction_model", text_value, &index)) return std::nullopt;
+    c.friction_model = static_cast<FrictionModel>(index);
+  }
+  if (lookup(raw.cylinder, *FindParam("thermal_model"), &text_value)) {
+    if (!parser.Choice(*FindParam("thermal_model"), "thermal_model", text_value, &index)) return std::nullopt;
+    c.thermal_model = static_cast<ThermalModel>(index);
   }
   for (int k = 0; k < 2; ++k) {
     ChamberConfig& ch = c.chamber[k];
@@ -448,6 +492,39 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
   if (c.p_supply <= c.p_exhaust) {
     return fail("p_supply", "must exceed p_exhaust (" + FormatBound(c.p_exhaust) + " Pa)");
   }
+  if (c.friction_model == FrictionModel::kLuGre) {
+    if (!c.coulomb_friction) {
+      return fail("coulomb_friction", "required for friction_model=lugre (F_c, the sliding level of g(v))");
+    }
+    if (c.static_friction < *c.coulomb_friction) {
+      return fail("static_friction", "must be at least coulomb_friction (" + FormatBound(*c.coulomb_friction) +
+                                         "): F_s is the breakaway level, F_c the sliding one");
+    }
+  }
+  if (c.thermal_model == ThermalModel::kEnergy) {
+    for (int k = 0; k < 2; ++k) {
+      if (c.chamber[k].model != PressureModel::kPhysical) {
+        return fail("thermal_model", "energy needs the physical pressure model in both chambers (" +
+                                         prefixed(k, "pressure_model") + " is identified)");
+      }
+    }
+    if (c.step == ChamberStep::kExplicit) {
+      return fail("thermal_model", "energy has its own implicit step: use step=linearized or step=exact (the same for it)");
+    }
+  }
+  for (int k = 0; k < 2; ++k) {
+    if (c.chamber[k].line_volume <= 0) continue;
+    std::string key = prefixed(k, "line_volume");
+    if (c.chamber[k].model != PressureModel::kPhysical) return fail(key, "a line needs the physical pressure model");
+    if (c.thermal_model == ThermalModel::kEnergy) return fail(key, "not combined with thermal_model=energy in this version");
+    if (c.step == ChamberStep::kExplicit) return fail(key, "a line has its own implicit step: use step=linearized or step=exact");
+    if (c.piston_leak_conductance > 0 || c.piston_leak_area > 0) {
+      return fail(key, "not combined with piston_leak_conductance or piston_leak_area in this version (the line's step holds one chamber)");
+    }
+    if (c.chamber[k].atmosphere_leak_area > 0) {
+      return fail(key, "not combined with atmosphere_leak_area in this version (the laminar atmosphere_leak_conductance is)");
+    }
+  }
   bool delays = c.delay_open > 0 || c.delay_close > 0;
   if (c.input == CommandInput::kPwm && delays && c.pwm_frequency == 0) {
     return fail(c.delay_open > 0 ? "delay_open" : "delay_close",
@@ -500,6 +577,8 @@ int ChoiceIndex(const CylinderConfig& c, const std::string& key, int k) {
   if (key == "valve") return static_cast<int>(c.valve);
   if (key == "input") return static_cast<int>(c.input);
   if (key == "step") return static_cast<int>(c.step);
+  if (key == "friction_model") return static_cast<int>(c.friction_model);
+  if (key == "thermal_model") return static_cast<int>(c.thermal_model);
   if (key == "pressure_model") return static_cast<int>(c.chamber[k].model);
   return static_cast<int>(c.chamber[k].flow);  // "flow"
 }
@@ -508,6 +587,8 @@ void SetChoiceIndex(CylinderConfig* c, const std::string& key, int k, int index)
   if (key == "valve") c->valve = static_cast<ValveKind>(index);
   if (key == "input") c->input = static_cast<CommandInput>(index);
   if (key == "step") c->step = static_cast<ChamberStep>(index);
+  if (key == "friction_model") c->friction_model = static_cast<FrictionModel>(index);
+  if (key == "thermal_model") c->thermal_model = static_cast<ThermalModel>(index);
   if (key == "pressure_model") c->chamber[k].model = static_cast<PressureModel>(index);
   if (key == "flow") c->chamber[k].flow = static_cast<FlowLaw>(index);
 }

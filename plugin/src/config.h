@@ -37,6 +37,18 @@ enum class PressureModel {
   kIdentified,  // identified p' = (s - p) r (paper 000 eqs. 6, 10, exact step 7)
 };
 
+// seal friction model of a cylinder with coulomb_friction
+enum class FrictionModel {
+  kCoulombStribeck,  // Stribeck curve as bias, static level from the transmission's frictionloss (default)
+  kLuGre,            // dynamic bristle model (Canudas de Wit et al. 1995), state "<cyl>.z"
+};
+
+// how the gas temperature of the chambers is modelled
+enum class ThermalModel {
+  kPolytropic,  // p V^n = const for a sealed chamber, T fixed in the flow laws (default)
+  kEnergy,      // the energy equation of an open chamber with wall heat (Richer and Hurmuzlu 2000), states "<cyl>.TP/TN"
+};
+
 // how the chamber ODE is advanced over one MuJoCo step
 enum class ChamberStep {
   kLinearized,  // exponential step of the flow linearised at the step's start, adaptive fallback (default)
@@ -71,6 +83,10 @@ struct ChamberConfig {
   double leak_area_exhaust = 0;  // L_r, m^2
   double area_smoothing = 0;     // m^2: the unit inside smax (the paper's mm^2)
   double atmosphere_leak_conductance = 0;  // kg/(s Pa): laminar leak G (p - p_atm) out of the chamber
+  double atmosphere_leak_area = 0;         // m^2: orifice leak to p_atm (Sanville form, C_d 1, b 0.528)
+  double wall_heat_conductance = 0;        // h A, W/K, between the gas and the wall (thermal_model=energy)
+  double line_volume = 0;                  // m^3: tube between valve and chamber (0: none)
+  double line_conductance = 0;             // kg/(s Pa): ISO 6358 sonic conductance of the line's restriction
   IdentifiedParams identified;
 };
 
@@ -93,6 +109,8 @@ struct CylinderConfig {
   double u_max = 0;                // V, command saturation
   double orifice_gradient = 0;     // w, m^2/m
   double deadband = 0;             // fraction of the full spool range 2 k_v u_max with no flow
+  // kProportionalPerChamber: voltage band added on both sides of the sealed band [U_r, U_c] of eq. 3
+  double deadband_voltage = 0;     // V
   // kOnOff switching
   double delay_open = 0;       // s, opening delay of each valve (paper 002: 1.3 ms)
   double delay_close = 0;      // s, closing delay (paper 002: 0.2 ms)
@@ -100,7 +118,15 @@ struct CylinderConfig {
   // seal friction on top of the joint's (or tendon's) frictionloss
   std::optional<double> coulomb_friction;  // N (N m): sliding friction level
   double stribeck_velocity = 0;            // m/s (rad/s)
+  FrictionModel friction_model = FrictionModel::kCoulombStribeck;
+  // LuGre (friction_model=lugre): F = sigma0 z + sigma1 dz/dt + sigma2 v, Canudas de Wit et al. 1995
+  double static_friction = 0;    // F_s, N (N m): breakaway level
+  double bristle_stiffness = 0;  // sigma0, N/m (N m/rad)
+  double bristle_damping = 0;    // sigma1, N s/m (N m s/rad)
+  double viscous_friction = 0;   // sigma2, N s/m (N m s/rad)
+  ThermalModel thermal_model = ThermalModel::kPolytropic;
   double piston_leak_conductance = 0;      // kg/(s Pa): laminar leak G (p_P - p_N) from P to N
+  double piston_leak_area = 0;             // m^2: orifice leak across the piston (Sanville form, C_d 1, b 0.528)
   // the supply reservoir ("pneumatic_reservoir:<supply>") feeding the supply ports; empty: the
   // compressor at p_supply feeds them directly
   std::string supply;

@@ -177,13 +177,25 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
     double frictionloss = trntype == mjTRN_TENDON     ? m->tendon_frictionloss[target]
                           : trntype == mjTRN_SLIDERCRANK ? -1
                                                       : m->dof_frictionloss[m->jnt_dofadr[target]];
-    if (frictionloss < 0) return fail(friction_name, "seal friction needs a joint or tendon transmission (its frictionloss is the static friction)");
-    c.static_friction_ = gear > 0 ? frictionloss / gear : 0;
-    if (*cfg.coulomb_friction > c.static_friction_) {
-      *error = "cylinder '" + name + "': key 'coulomb_friction': " + std::to_string(*cfg.coulomb_friction) +
-               " exceeds the static friction, the frictionloss of the transmission (" +
-               std::to_string(c.static_friction_) + "); set frictionloss to the static level";
-      return std::nullopt;
+    if (cfg.friction_model == FrictionModel::kLuGre) {
+      // LuGre holds the piston itself (its bristles): a frictionloss constraint would add a second static level
+      if (frictionloss > 0) {
+        const char* what = trntype == mjTRN_TENDON ? "tendon" : "joint";
+        const char* object = mj_id2name(m, trntype == mjTRN_TENDON ? mjOBJ_TENDON : mjOBJ_JOINT, target);
+        *error = "cylinder '" + name + "': key 'friction_model': lugre provides the static friction itself " +
+                 "(static_friction), but " + what + " '" + (object ? object : "?") + "' has frictionloss=" +
+                 FormatNumber(frictionloss) + "; set it to 0";
+        return std::nullopt;
+      }
+    } else {
+      if (frictionloss < 0) return fail(friction_name, "seal friction needs a joint or tendon transmission (its frictionloss is the static friction)");
+      c.static_friction_ = gear > 0 ? frictionloss / gear : 0;
+      if (*cfg.coulomb_friction > c.static_friction_) {
+        *error = "cylinder '" + name + "': key 'coulomb_friction': " + std::to_string(*cfg.coulomb_friction) +
+                 " exceeds the static friction, the frictionloss of the transmission (" +
+                 std::to_string(c.static_friction_) + "); set frictionloss to the static level";
+        return std::nullopt;
+      }
     }
     c.actuators_.push_back({friction_id, {Role::kFriction, -1, 0}});
   } else if (friction_id >= 0) {
@@ -238,6 +250,10 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
 }
 
 bool Cylinder::NeedsEndVelocity() const {
+  return ChambersFollowEndVelocity() || config_.friction_model == FrictionModel::kLuGre;
+}
+
+bool Cylinder::ChambersFollowEndVelocity() const {
   bool physical = config_.chamber[0].model == PressureModel::kPhysical ||
                   config_.chamber[1].model == PressureModel::kPhysical;
   return physical && config_.step != ChamberStep::kExplicit;
@@ -280,7 +296,7 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
   for (int i = 0; i < 4; ++i) {
     if (state_id_[i] >= 0) ActDot(m, d, state_id_[i]) = (ValveStateAtEnd(config_, i, valves) - valves.state[i]) / h;
   }
-  // extra states of the role table with no physics yet hold their value
+  // extra states of the role table hold their value unless their physics below writes their rate
   if (has_extra_states_) {
     for (int id : extra_state_id_) {
       if (id >= 0) ActDot(m, d, id) = 0;
@@ -295,15 +311,23 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
   }
 
   // act_dot of each chamber: (p(t + h) - p(t)) / h, or dp/dt for step=explicit
-  double p0[2], p1[2], rate[2];
+  double p0[2], p1[2] = {0, 0}, rate[2];
   for (int k = 0; k < 2; ++k) p0[k] = Act(m, d, info_.chamber_actuator[k]) + config_.p_atm;
   // MuJoCo's Euler and implicit integrators move the piston over the step with the velocity at its
   // end; the chamber steps follow that path (plain explicit Euler uses the velocity at the start)
   double x_rate = PistonVelocity(m, d, info_);
+  double end_rate = x_rate;
   if (pass.end_velocity && NeedsEndVelocity()) {
     // the piston's rate is the actuator moment times the joint velocities; a joint's is one entry
     const mjtNum* moment = d->actuator_moment + static_cast<size_t>(info_.chamber_actuator[0]) * m->nv;
-    x_rate = dof_ >= 0 ? moment[dof_] * pass.end_velocity[dof_] : mju_dot(moment, pass.end_velocity, m->nv);
+    end_rate = dof_ >= 0 ? moment[dof_] * pass.end_velocity[dof_] : mju_dot(moment, pass.end_velocity, m->nv);
+    if (ChambersFollowEndVelocity()) x_rate = end_rate;
+  }
+  // LuGre bristles: moved over the step at the velocity MuJoCo moves the piston with (the end-of-step
+  // velocity, as the chambers' volumes), in closed form
+  if (config_.friction_model == FrictionModel::kLuGre) {
+    int id = extra_state_id_[kBristle];
+    ActDot(m, d, id) = BristleMeanRate(Act(m, d, id), end_rate, h);
   }
   const double leak = config_.piston_leak_conductance;
   bool physical[2];
@@ -320,19 +344,61 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
                                                      : (IdentifiedPressureStep(sr, p0[k], h) - p0[k]) / h;
   }
 
+  // thermal_model=energy (both chambers physical, step linearized or exact: the parser sees to it): each
+  // chamber's pressure and gas temperature by the energy equation's own implicit step; the leak across
+  // the piston sees the other chamber as it was at the start of the step
+  if (config_.thermal_model == ThermalModel::kEnergy) {
+    PortSchedule ports[2] = {{config_, 0, valves}, {config_, 1, valves}};
+    GasState gas[2];
+    for (int k = 0; k < 2; ++k) {
+      gas[k] = {p0[k], Act(m, d, extra_state_id_[kTemperatureP + k]) + config_.temperature};
+    }
+    for (int k = 0; k < 2; ++k) {
+      double drawn = 0;
+      GasState end = EnergyPressureStep(models[k], ports[k], Volume(m, d, k, x_rate), leak, config_.piston_leak_area,
+                                        gas[1 - k], gas[k], h, supply_drawn ? &drawn : nullptr);
+      rate[k] = (end.p - p0[k]) / h;
+      ActDot(m, d, extra_state_id_[kTemperatureP + k]) = (end.t - gas[k].t) / h;
+      if (supply_drawn) *supply_drawn += drawn;
+    }
+    for (int k = 0; k < 2; ++k) ActDot(m, d, info_.chamber_actuator[k]) = rate[k];
+    return;
+  }
+
   // the physical model: the valves' openings over the step and the volumes along the piston's path
   if (physical[0] || physical[1]) {
     PortSchedule ports[2] = {{config_, 0, valves}, {config_, 1, valves}};
     VolumePath volume[2] = {Volume(m, d, 0, x_rate), Volume(m, d, 1, x_rate)};
     // the linearized step: both chambers together when the leak across the piston couples them
     bool done[2] = {false, false};
+    // a chamber behind a line (line_volume > 0; the parser refuses step=explicit and the piston leak with
+    // it): line and chamber together by their own implicit step
+    bool line[2] = {false, false};
+    double line_drawn = 0;
+    for (int k = 0; k < 2; ++k) {
+      if (!physical[k] || config_.chamber[k].line_volume <= 0) continue;
+      int id = extra_state_id_[kLineP + k];
+      double line0 = Act(m, d, id) + config_.p_atm, line1 = line0, drawn = 0;
+      LinePressureStep(models[k], ports[k], volume[k], line0, p0[k], h, &line1, &p1[k], supply_drawn ? &drawn : nullptr);
+      ActDot(m, d, id) = (line1 - line0) / h;
+      line_drawn += drawn;
+      line[k] = done[k] = true;
+    }
+    // the orifice leak across the piston (piston_leak_area): its exchange at fixed volumes in two halves around
+    // the chambers' steps (Strang splitting); the chambers step from pin, what the first half leaves
+    const double orifice = physical[0] && physical[1] && config_.step != ChamberStep::kExplicit ? config_.piston_leak_area : 0;
+    double pin[2] = {p0[0], p0[1]};
+    const double v_start_both[2] = {volume[0].At(0), volume[1].At(0)}, v_end_both[2] = {volume[0].At(h), volume[1].At(h)};
+    if (orifice > 0) PistonOrificeExchange(models, v_start_both, orifice, h / 2, pin);
     if (config_.step == ChamberStep::kLinearized) {
       const PortSchedule* schedules[2] = {&ports[0], &ports[1]};
       if (leak > 0 && physical[0] && physical[1]) {
-        done[0] = done[1] = LinearizedPressureStep(2, models, schedules, volume, leak, p0, h, p1);
+        done[0] = done[1] = LinearizedPressureStep(2, models, schedules, volume, leak, pin, h, p1);
       } else {
         for (int k = 0; k < 2; ++k) {
-          if (physical[k]) done[k] = LinearizedPressureStep(1, &models[k], &schedules[k], &volume[k], 0, &p0[k], h, &p1[k]);
+          if (physical[k] && !line[k]) {
+            done[k] = LinearizedPressureStep(1, &models[k], &schedules[k], &volume[k], 0, &pin[k], h, &p1[k]);
+          }
         }
       }
     }
@@ -341,13 +407,18 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
         if (physical[k]) {
           rate[k] = PressureRate(models[k], ports[k].At(0), p0[k], volume[k].At(0), volume[k].RateAt(0), leak,
                                  p0[1 - k]);
+          if (config_.piston_leak_area > 0 && physical[1 - k]) {
+            // the orifice across the piston, as the chamber takes it: n r T Q(p_other -> p) / V
+            rate[k] += models[k].polytropic_index * models[k].gas_rt *
+                       MassFlow(models[k].leak_law, config_.piston_leak_area, p0[1 - k], p0[k]) / volume[k].At(0);
+          }
         }
       }
     } else if (!done[0] || !done[1]) {
       // the adaptive implicit step (step=exact, or where the linearized step asks for it), chamber by chamber;
       // the leak across the piston, solved exactly, in two halves around it (Strang splitting)
       bool coupled = leak > 0 && physical[0] && physical[1];
-      double p[2] = {p0[0], p0[1]};
+      double p[2] = {pin[0], pin[1]};
       double v_start[2] = {volume[0].At(0), volume[1].At(0)}, v_end[2] = {volume[0].At(h), volume[1].At(h)};
       if (coupled) PistonLeakExchange(models, v_start, leak, h / 2, p);
       for (int k = 0; k < 2; ++k) {
@@ -355,6 +426,8 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
       }
       if (coupled) PistonLeakExchange(models, v_end, leak, h / 2, p1);
     }
+    const double p1_chambers[2] = {p1[0], p1[1]};  // before the orifice's second half
+    if (orifice > 0) PistonOrificeExchange(models, v_end_both, orifice, h / 2, p1);
     for (int k = 0; k < 2; ++k) {
       if (physical[k] && config_.step != ChamberStep::kExplicit) rate[k] = (p1[k] - p0[k]) / h;
     }
@@ -362,15 +435,16 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
     // the parser refuses supply= with the identified model)
     if (supply_drawn) {
       double coupled_leak = leak > 0 && physical[0] && physical[1] ? leak : 0;
+      if (line[0] || line[1]) *supply_drawn += line_drawn;
       for (int k = 0; k < 2; ++k) {
-        if (!physical[k]) continue;
+        if (!physical[k] || line[k]) continue;
         if (config_.step == ChamberStep::kExplicit) {
           // plain explicit Euler: the flow at the start of the step, as the chamber takes it
           double opening = ports[k].At(0).supply;
           *supply_drawn += opening > 0 ? h * MassFlow(models[k].flow, opening, models[k].p_supply, p0[k]) : 0.0;
         } else {
-          *supply_drawn += SupplyMassOverStep(models[k], ports[k].At(0), ports[k].At(h), volume[k], p0[k], p1[k],
-                                              coupled_leak, p0[1 - k], p1[1 - k], h);
+          *supply_drawn += SupplyMassOverStep(models[k], ports[k].At(0), ports[k].At(h), volume[k], pin[k],
+                                              p1_chambers[k], coupled_leak, pin[1 - k], p1_chambers[1 - k], h);
         }
       }
     }
@@ -388,7 +462,33 @@ void Cylinder::WriteGains(mjModel* m) const {
   }
 }
 
+double Cylinder::BristleMeanRate(double z, double v, double h) const {
+  // LuGre, Canudas de Wit et al. 1995 eqs. (2)-(3): dz/dt = v - sigma0 |v| z / g(v),
+  // g(v) = F_c + (F_s - F_c) exp(-(v/v_s)^2). With v held over the step the equation is linear in z,
+  // dz/dt = v - a z with a = sigma0 |v| / g(v) (up to 1e5 1/s: stiff), and its exact solution is
+  // z(h) = z + h phi1(-a h) (v - a z), phi1(x) = (e^x - 1)/x; this returns (z(h) - z)/h
+  const CylinderConfig& c = config_;
+  double ratio = v / c.stribeck_velocity;
+  double f_c = c.coulomb_friction.value_or(0);
+  double g = f_c + (c.static_friction - f_c) * std::exp(-ratio * ratio);
+  g = std::max(g, 1e-12 * c.static_friction);  // F_c = 0 at high speed: the bristles carry no load
+  double a = c.bristle_stiffness * std::fabs(v) / g;
+  double x = -a * h;
+  double phi1 = std::fabs(x) < 1e-8 ? 1 + x / 2 : std::expm1(x) / x;
+  return phi1 * (v - a * z);
+}
+
 double Cylinder::FrictionBias(const mjModel* m, const mjData* d) const {
+  if (config_.friction_model == FrictionModel::kLuGre) {
+    // LuGre, Canudas de Wit et al. 1995 eq. (4): F = sigma0 z + sigma1 dz/dt + sigma2 v against the motion.
+    // dz/dt is taken as its mean over the coming step at the present velocity (exact for a held v,
+    // BristleMeanRate): a bristle that relaxes within a step does not push for the whole step
+    // (the project's own discretisation; it equals dz/dt as h -> 0)
+    double v = PistonVelocity(m, d, info_);
+    double z = Act(m, d, extra_state_id_[kBristle]);
+    double rate = BristleMeanRate(z, v, m->opt.timestep);
+    return -(config_.bristle_stiffness * z + config_.bristle_damping * rate + config_.viscous_friction * v);
+  }
   // Stribeck curve F(v) = F_c + (F_s - F_c) exp(-(v/v_s)^2) against the motion (the project's own
   // form of the papers' static and Coulomb levels, paper 001 Section III): frictionloss
   // gives F_s, this term gives back (F_s - F_c)(1 - exp(-(v/v_s)^2)) along it. Its slope is zero

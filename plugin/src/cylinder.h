@@ -42,8 +42,11 @@ class Cylinder {
     double static_friction = 0;
   };
   Binding binding() const { return {dof_, static_friction_}; }
-  // true if a step of this cylinder follows the piston's predicted end-of-step velocity
+  // true if a step of this cylinder follows the piston's predicted end-of-step velocity (its chambers
+  // or its LuGre bristles)
   bool NeedsEndVelocity() const;
+  // extra-state slots of the role table (roles.cc): index of each Role::kState row
+  enum ExtraState { kBristle = 0, kTemperatureP = 1, kTemperatureN = 2, kLineP = 3, kLineN = 4, kExtraStateCount };
 
   // Advances the chambers and valve states over the step: writes the act_dot of the
   // chamber actuators ((p(t + h) - p(t)) / h with the configured chamber step) and of
@@ -69,8 +72,14 @@ class Cylinder {
   ChamberModel chamber_model_[2];
   int command_id_[4] = {-1, -1, -1, -1};  // ctrl sources, in ValveInputs::command order
   int state_id_[4] = {-1, -1, -1, -1};    // act sources, in ValveInputs::state order
-  static constexpr int kMaxExtraStates = 8;
-  int extra_state_id_[kMaxExtraStates] = {-1, -1, -1, -1, -1, -1, -1, -1};  // role table rows of Role::kState
+  // true if the chambers' volume path follows the predicted end-of-step velocity
+  bool ChambersFollowEndVelocity() const;
+  // LuGre (friction_model=lugre): the bristle deflection's mean rate over a step of length h at velocity v,
+  // from z (closed form, see cylinder.cc)
+  double BristleMeanRate(double z, double v, double h) const;
+
+  static constexpr int kMaxExtraStates = 12;
+  int extra_state_id_[kMaxExtraStates] = {-1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1};  // role table rows of Role::kState
   bool has_extra_states_ = false;
   int dof_ = -1;                          // the joint's dof when the transmission is a slide or hinge joint
   double static_friction_ = 0;            // transmission frictionloss in actuator units

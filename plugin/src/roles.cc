@@ -16,6 +16,10 @@ bool Proportional53(const CylinderConfig* c) { return c->valve == ValveKind::kPr
 bool SpoolLag(const CylinderConfig* c) { return c->valve == ValveKind::kProportional53 && ValvesHaveState(*c); }
 bool PerChamber(const CylinderConfig* c) { return c->valve == ValveKind::kProportionalPerChamber; }
 bool Friction(const CylinderConfig* c) { return c->coulomb_friction.has_value(); }
+bool LuGre(const CylinderConfig* c) { return c->friction_model == FrictionModel::kLuGre; }
+bool Energy(const CylinderConfig* c) { return c->thermal_model == ThermalModel::kEnergy; }
+bool LineP(const CylinderConfig* c) { return c->chamber[0].line_volume > 0; }
+bool LineN(const CylinderConfig* c) { return c->chamber[1].line_volume > 0; }
 
 constexpr char kCommanded[] = "this valve arrangement is commanded through its ctrl";
 constexpr char kOnOffRequired[] =
@@ -52,8 +56,27 @@ const RoleSpec kRoles[] = {
      "V (ctrl)", "", "voltage of chamber N's valve (paper 000 eq. 3)", kCommanded},
     // cylinder: forces
     {"friction", RoleOwner::kCylinder, Role::kFriction, 0, Never, Never, Friction, "coulomb_friction", "N (N m)", "",
-     "seal friction as bias, below the transmission's frictionloss (the static level)",
+     "seal friction as bias: the Stribeck give-back below the transmission's frictionloss (the static level), or the whole LuGre force (friction_model=lugre)",
      "coulomb_friction is applied through it"},
+    // cylinder: extra states (index = extra-state slot, Cylinder::kMaxExtraStates)
+    {"z", RoleOwner::kCylinder, Role::kState, 0, Never, LuGre, Never, "friction_model=lugre", "m (rad)",
+     "bristles relaxed (z = 0)",
+     "LuGre bristle deflection z (Canudas de Wit et al. 1995); its force acts through <cyl>.friction",
+     "its act is the LuGre bristle deflection"},
+    {"TP", RoleOwner::kCylinder, Role::kState, 1, Never, Energy, Never, "thermal_model=energy", "K",
+     "gas at the cylinder's temperature (act = T - temperature)",
+     "gas temperature of chamber P, energy equation of an open chamber (Richer and Hurmuzlu 2000)",
+     "its act is chamber P's gas temperature"},
+    {"TN", RoleOwner::kCylinder, Role::kState, 2, Never, Energy, Never, "thermal_model=energy", "K",
+     "gas at the cylinder's temperature (act = T - temperature)",
+     "gas temperature of chamber N, energy equation of an open chamber (Richer and Hurmuzlu 2000)",
+     "its act is chamber N's gas temperature"},
+    {"LP", RoleOwner::kCylinder, Role::kState, 3, Never, LineP, Never, "P.line_volume > 0", "Pa",
+     "p_line = p_atm (act = p_line - p_atm, gauge)", "pressure in the line between chamber P's valve ports and chamber P",
+     "its act is the pressure in chamber P's line"},
+    {"LN", RoleOwner::kCylinder, Role::kState, 4, Never, LineN, Never, "N.line_volume > 0", "Pa",
+     "p_line = p_atm (act = p_line - p_atm, gauge)", "pressure in the line between chamber N's valve ports and chamber N",
+     "its act is the pressure in chamber N's line"},
     // supply reservoir
     {"pressure", RoleOwner::kReservoir, Role::kReservoir, 0, Never, Always, Never, "every reservoir", "Pa",
      "p = p_supply of the cylinders it feeds, a charged reservoir (act = p - p_supply)",

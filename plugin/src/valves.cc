@@ -116,12 +116,16 @@ double OnOffCapacity(const ChamberConfig& chamber) {
   return chamber.flow == FlowLaw::kIso6358 ? chamber.sonic_conductance : chamber.port_area;
 }
 
-PortOpenings ProportionalValveAreas(const ChamberConfig& k, double u) {
-  // paper 000 eqs. (3a), (3b), with areas scaled by area_smoothing (the paper's mm^2) inside smax
+PortOpenings ProportionalValveAreas(const ChamberConfig& k, double u, double deadband) {
+  // paper 000 eqs. (3a), (3b), with areas scaled by area_smoothing (the paper's mm^2) inside smax; the
+  // deadband shifts the seals outward, U_c + deadband and U_r - deadband (the project's own form of the
+  // spool deadband of paper 001 for this valve)
   double unit = k.area_smoothing;
+  double supply_seal = k.u_supply_seal, exhaust_seal = k.u_exhaust_seal;
+  if (deadband > 0) supply_seal += deadband, exhaust_seal -= deadband;
   PortOpenings a;
-  a.supply = k.leak_area_supply + unit * Smax(((u - k.u_supply_seal) * k.area_gain - k.leak_area_supply) / unit);
-  a.exhaust = k.leak_area_exhaust + unit * Smax(((k.u_exhaust_seal - u) * k.area_gain - k.leak_area_exhaust) / unit);
+  a.supply = k.leak_area_supply + unit * Smax(((u - supply_seal) * k.area_gain - k.leak_area_supply) / unit);
+  a.exhaust = k.leak_area_exhaust + unit * Smax(((exhaust_seal - u) * k.area_gain - k.leak_area_exhaust) / unit);
   return a;
 }
 
@@ -160,7 +164,7 @@ PortSchedule::PortSchedule(const CylinderConfig& c, int chamber, const ValveInpu
       spool_start_ = c.spool_time_constant > 0 ? in.state[0] : spool_target_;
       return;
     case ValveKind::kProportionalPerChamber:
-      segments_.push_back(ProportionalValveAreas(k, in.command[chamber]));
+      segments_.push_back(ProportionalValveAreas(k, in.command[chamber], c.deadband_voltage));
       return;
     case ValveKind::kOnOff:
       break;

@@ -70,8 +70,10 @@ struct ValveInputs {
 // full-open capacity of one on/off valve port in flow-law units, per chamber
 double OnOffCapacity(const ChamberConfig& chamber);
 
-// paper 000 eq. (3): supply and exhaust areas (m^2) of a chamber's own valve at command u (V)
-PortOpenings ProportionalValveAreas(const ChamberConfig& chamber, double u);
+// paper 000 eq. (3): supply and exhaust areas (m^2) of a chamber's own valve at command u (V); a
+// deadband (deadband_voltage, V) moves the supply seal up to U_c + deadband and the exhaust seal down
+// to U_r - deadband
+PortOpenings ProportionalValveAreas(const ChamberConfig& chamber, double u, double deadband = 0);
 
 // effective spool opening (m) after the deadband; paper 001, rigs.md rig B
 double SpoolOpening(const CylinderConfig& c, double spool_position);
