@@ -615,40 +615,58 @@ GasState EnergyPressureStep(const ChamberModel& k, const PortSchedule& ports, co
 namespace {
 
 
-// one backward Euler substep of LinePressureStep: line and chamber pressures at its end, and the mass
-// that entered the line through the supply port
+// one linearly implicit Euler substep of LinePressureStep (Rosenbrock-Euler: backward Euler with the
+// flows linearised at the substep's start, e.g. Hairer and Wanner, Solving ODEs II, Section IV.7): line
+// and chamber pressures at its end, and the mass that entered the line through the supply port. The
+// chamber's compression by the piston is taken exactly, p_c = p0 (v0/v1)^(alpha n) as in the polytropic
+// step; the unknowns are the changes dL = p_L1 - p_L0 and dp = p1 - p_c of
+//   V_L / (r T) dL       = s (Q_valve(p_L) - q),            q = Q_r(p_L, p) the restriction's flow,
+//   v1 / (n r T) dp      = s (q - G_atm (p - p_atm)),
+// with Q_valve and Q_r linear about (p_L0, p_c): a 2 x 2 linear system. Both equations use the same
+// linearised q, so an isothermal chamber at fixed volume behind closed valves keeps
+// V_L p_L + V p exactly. The slopes are one-sided differences (the laws' square roots have unbounded
+// slopes where the pressures meet: RestrictionFlow is laminar there).
 struct LineSubstep {
   double line = 0, p = 0, supply = 0;
 };
-LineSubstep LineBackwardEuler(const ChamberModel& k, const PortOpenings& o, double line0, double p0, double v0,
-                              double v1, double s) {
-  const double k_line = k.gas_rt / k.line_volume;
+// The restriction's mass flow from the line (p_line) into the chamber (p), signed: ISO 6358 (paper 002
+// eq. 4) down to a pressure ratio of 0.999, linear in the pressure difference above it, as
+// MATLAB Simscape's pneumatic local restriction does with its laminar flow pressure ratio (0.999 by
+// default): the elliptic law's slope is unbounded where the pressures meet, which no linearised step
+// can follow, and a real restriction is laminar there.
+double RestrictionFlow(const ChamberModel& k, double p_line, double p) {
+  constexpr double kLaminarRatio = 0.999;
+  const double hi = std::max(p_line, p), lo = std::min(p_line, p);
+  if (hi <= 0) return 0.0;
+  double q;
+  if (lo / hi <= kLaminarRatio) {
+    q = MassFlow(k.line, k.line_conductance, hi, lo);
+  } else {
+    q = MassFlow(k.line, k.line_conductance, hi, kLaminarRatio * hi) * (1 - lo / hi) / (1 - kLaminarRatio);
+  }
+  return p_line >= p ? q : -q;
+}
+LineSubstep LineLinearizedEuler(const ChamberModel& k, const PortOpenings& o, double line0, double p0, double v0,
+                                double v1, double s) {
+  const double k_line = s * k.gas_rt / k.line_volume;
   const double p_compressed = p0 * std::pow(v0 / v1, k.work_factor * k.polytropic_index);
   const double c = s * k.polytropic_index * k.gas_rt / v1;
-  // unknown: the restriction's mass flow q (line -> chamber) over the substep. For a given q the chamber's
-  // end pressure is explicit, p1 = (p_compressed + c q + c G_atm p_atm) / (1 + c G_atm), and the line's is
-  // the root of p_L = p_L0 + s k_L (Q_valve(p_L) - q), between the line's start, the ports' pressures and
-  // where q alone would take it; the residual q - Q_r(p_L(q), p1(q)) increases with q. Solving for q (not
-  // p1) keeps the restriction's square root out of the amplified chamber residual, and gives
-  // V_L dp_L + V dp = 0 exactly for an isothermal chamber at fixed volume (the gas moved is q s either way).
-  auto chamber_at = [&](double q) {
-    return (p_compressed + c * q + c * k.atmosphere_leak * k.p_atm) / (1 + c * k.atmosphere_leak);
-  };
-  auto line_at = [&](double q) {
-    auto residual = [&](double line) { return line - line0 - s * k_line * (ChamberMassFlow(k, o, line) - q); };
-    double shifted = line0 - s * k_line * q;
-    return IncreasingRoot(residual, std::min({line0, k.p_exhaust, shifted}), std::max({line0, k.p_supply, shifted}),
-                          1e-13 * k.p_supply);
-  };
-  const double highest = std::max({line0, k.p_supply, p_compressed, k.p_atm, p0});
-  const double bound = k.line_conductance * highest;  // |Q_r| <= C_r max(p_L, p)
-  auto consistency = [&](double q) {
-    return q - MassFlow(k.line, k.line_conductance, line_at(q), std::max(chamber_at(q), 0.0));
-  };
+  const double delta = 1e-7 * k.p_supply;
+  const double valve = ChamberMassFlow(k, o, line0);
+  const double valve_slope = (ChamberMassFlow(k, o, line0 + delta) - valve) / delta;  // <= 0
+  const double q = RestrictionFlow(k, line0, p_compressed);
+  const double a = (RestrictionFlow(k, line0 + delta, p_compressed) - q) / delta;  // >= 0
+  const double b = (RestrictionFlow(k, line0, p_compressed + delta) - q) / delta;  // <= 0
+  const double g = k.atmosphere_leak;
+  // [1 - k_L (Q_v' - a)   k_L b        ] [dL]   [k_L (Q_v - q)               ]
+  // [-c a                 1 - c b + c g] [dp] = [c (q - g (p_c - p_atm))      ]
+  const double m11 = 1 - k_line * (valve_slope - a), m12 = k_line * b;
+  const double m21 = -c * a, m22 = 1 - c * b + c * g;
+  const double r1 = k_line * (valve - q), r2 = c * (q - g * (p_compressed - k.p_atm));
+  const double det = m11 * m22 - m12 * m21;
   LineSubstep out;
-  double q = IncreasingRoot(consistency, -bound, bound, 1e-15 * bound);
-  out.p = chamber_at(q);
-  out.line = line_at(q);
+  out.line = line0 + (r1 * m22 - m12 * r2) / det;
+  out.p = p_compressed + (m11 * r2 - m21 * r1) / det;
   out.supply = o.supply > 0 ? s * MassFlow(k.flow, o.supply, k.p_supply, out.line) : 0.0;
   return out;
 }
@@ -669,9 +687,9 @@ void LinePressureStep(const ChamberModel& k, const PortSchedule& ports, const Vo
       s = next - tau;
       PortOpenings at_mid = ports.At(mid - 1e-12 * h), at_next = ports.At(next - 1e-12 * h);
       double v_start = volume.At(tau), v_mid = volume.At(mid), v_next = volume.At(next);
-      LineSubstep full = LineBackwardEuler(k, at_next, line, p, v_start, v_next, s);
-      LineSubstep half = LineBackwardEuler(k, at_mid, line, p, v_start, v_mid, s / 2);
-      LineSubstep half2 = LineBackwardEuler(k, at_next, half.line, half.p, v_mid, v_next, s / 2);
+      LineSubstep full = LineLinearizedEuler(k, at_next, line, p, v_start, v_next, s);
+      LineSubstep half = LineLinearizedEuler(k, at_mid, line, p, v_start, v_mid, s / 2);
+      LineSubstep half2 = LineLinearizedEuler(k, at_next, half.line, half.p, v_mid, v_next, s / 2);
       double error = std::max(std::fabs(half2.line - full.line), std::fabs(half2.p - full.p));
       if (error > k.tolerance && substep > min_substep) {
         substep = std::max(s * std::max(0.2, 0.9 * std::sqrt(k.tolerance / error)), min_substep);

@@ -36,8 +36,9 @@ std::string Choice(const mjModel* m, const std::string& cylinder, const std::str
 
 // a key of the cylinder's "pneumatic:" text, fitted
 EffectParameter KeyParameter(const std::string& cylinder, const std::string& key, double initial, double lower, double upper,
-                             double scale) {
+                             double scale, bool logarithmic = false) {
   EffectParameter p;
+  p.logarithmic = logarithmic;
   p.name = cylinder + ":" + key;
   p.unit = KeyUnit(key);
   p.initial = initial, p.lower = lower, p.upper = upper, p.scale = scale;
@@ -206,9 +207,10 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
                  [&](const CylinderSeries& cyl, Candidate* c) {
                    const std::string& n = cyl.info.name;
                    if (orifice) {
-                     c->parameters.push_back(KeyParameter(n, "piston_leak_area", Parameter(m, n, "piston_leak_area", 0), 0, 1e-5, 1e-8));
-                     c->parameters.push_back(KeyParameter(n, "P.atmosphere_leak_area", Parameter(m, n, "P.atmosphere_leak_area", 0), 0, 1e-5, 1e-8));
-                     c->parameters.push_back(KeyParameter(n, "N.atmosphere_leak_area", Parameter(m, n, "N.atmosphere_leak_area", 0), 0, 1e-5, 1e-8));
+                     // from 1e-9 m^2 (a leak far below any valve's, about 0.03 mm across) on a log scale
+                     for (const char* key : {"piston_leak_area", "P.atmosphere_leak_area", "N.atmosphere_leak_area"}) {
+                       c->parameters.push_back(KeyParameter(n, key, std::max(Parameter(m, n, key, 0), 1e-9), 1e-12, 1e-5, 1e-9, true));
+                     }
                    } else {
                      c->parameters.push_back(KeyParameter(n, "piston_leak_conductance", Parameter(m, n, "piston_leak_conductance", 0), 0, 1e-6, 1e-11));
                      c->parameters.push_back(KeyParameter(n, "P.atmosphere_leak_conductance", Parameter(m, n, "P.atmosphere_leak_conductance", 0), 0, 1e-6, 1e-11));
@@ -228,7 +230,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
       char text[32];
       std::snprintf(text, sizeof(text), "%.6g", conductance);
       c->edits.push_back({n, {"TP", "TN"}, {}, {{"thermal_model", "energy"}, {"wall_heat_conductance", text}}});
-      c->parameters.push_back(KeyParameter(n, "wall_heat_conductance", conductance, 1e-3 * conductance, 1e3 * conductance, conductance));
+      c->parameters.push_back(KeyParameter(n, "wall_heat_conductance", conductance, 1e-3 * conductance, 1e3 * conductance, conductance, true));
     } else {
       c->form = "polytropic index of both chambers";
       c->parameters.push_back(KeyParameter(n, "polytropic_index", Parameter(m, n, "P.polytropic_index", 1.4), 1.0, 1.7, 0.1));
@@ -248,8 +250,8 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
                    const std::string& n = cyl.info.name;
                    const double v0 = Parameter(m, n, "P.dead_volume", 1e-6);
                    c->edits.push_back({n, {"LP", "LN"}, {}, {{"line_volume", std::to_string(v0)}, {"line_conductance", "1e-8"}}});
-                   c->parameters.push_back(KeyParameter(n, "line_volume", v0, 1e-3 * v0, 100 * v0, v0));
-                   c->parameters.push_back(KeyParameter(n, "line_conductance", 1e-8, 1e-11, 1e-5, 1e-8));
+                   c->parameters.push_back(KeyParameter(n, "line_volume", v0, 1e-3 * v0, 100 * v0, v0, true));
+                   c->parameters.push_back(KeyParameter(n, "line_conductance", 1e-8, 1e-11, 1e-5, 1e-8, true));
                  });
   }
   // payload: a moving mass different from the model's, on the body the cylinder's joint moves

@@ -46,6 +46,9 @@ struct EffectParameter {
   std::string unit;   // SI
   double initial = 0, lower = 0, upper = 0;
   double scale = 1;   // typical magnitude: the fit's unit and finite-difference reference
+  // fitted as z = ln(value / scale) (lower > 0): for magnitudes known only to a decade or two
+  // (conductances, volumes), where a linear step either crawls or overshoots
+  bool logarithmic = false;
   // sets the value on a model (with the candidate's edits) and the sensor model: "" or why not
   std::function<std::string(mjModel*, SensorModel*, double)> apply;
 };

@@ -200,6 +200,13 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
   train_gap.signal_scale = held_gap.signal_scale = SignalScales(*train);
   train_gap.threads = held_gap.threads = options.threads;
   train_gap.windows = MakeWindows(train->rows(), horizon, warmup);
+  {
+    std::vector<int> kept;
+    for (size_t i = 0; i < train_gap.windows.starts.size(); i += std::max(options.fit_window_stride, 1)) {
+      kept.push_back(train_gap.windows.starts[i]);
+    }
+    train_gap.windows.starts = kept;
+  }
   held_gap.windows = MakeWindows(held->rows(), horizon, warmup);
   for (int s = 0; s < train->signals(); ++s) out.signal_labels.push_back(train->SignalLabel(s));
   out.signal_scale = train_gap.signal_scale;
@@ -233,6 +240,9 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     std::vector<Candidate> tried;
     for (Candidate& c : candidates) {
       if (std::find(found.begin(), found.end(), c.effect) != found.end()) continue;
+      if (!options.effects.empty() && std::find(options.effects.begin(), options.effects.end(), c.effect) == options.effects.end()) {
+        continue;
+      }
       const auto tc = std::chrono::steady_clock::now();
       say("round " + std::to_string(round + 1) + ": fitting " + c.effect + " (" + c.form + ")");
       CandidateResult result;

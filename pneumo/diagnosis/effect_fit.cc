@@ -19,6 +19,10 @@ std::string ApplyValues(const Candidate& c, const std::vector<double>& values, m
   return "";
 }
 
+// the optimiser's variable z of a parameter and back: value = scale z, or scale e^z
+double ToValue(const EffectParameter& p, double z) { return p.logarithmic ? p.scale * std::exp(z) : p.scale * z; }
+double ToVariable(const EffectParameter& p, double value) { return p.logarithmic ? std::log(value / p.scale) : value / p.scale; }
+
 // Ceres' view of a candidate's fit: one block z (value = z scale), the normalised residuals of the
 // valid rows. Remembers the last point, because Ceres evaluates the residuals of a step and then,
 // once it accepts it, residuals and Jacobian at the same point.
@@ -48,7 +52,7 @@ class EffectCost : public ceres::CostFunction {
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
     const size_t k = c_.parameters.size();
     std::vector<double> values(k);
-    for (size_t i = 0; i < k; ++i) values[i] = parameters[0][i] * c_.parameters[i].scale;
+    for (size_t i = 0; i < k; ++i) values[i] = ToValue(c_.parameters[i], parameters[0][i]);
     Eigen::VectorXd r;
     if (values == last_values_ && last_r_.size() == num_residuals()) {
       r = last_r_;
@@ -63,16 +67,16 @@ class EffectCost : public ceres::CostFunction {
                                                                                              static_cast<Eigen::Index>(k));
       for (size_t i = 0; i < k; ++i) {
         const EffectParameter& p = c_.parameters[i];
-        double h = options_.relative_step * p.scale;
-        if (values[i] + h > p.upper) h = -h;
+        double dz = options_.relative_step;
+        if (ToValue(p, parameters[0][i] + dz) > p.upper) dz = -dz;
         std::vector<double> shifted = values;
-        shifted[i] += h;
+        shifted[i] = ToValue(p, parameters[0][i] + dz);
         Eigen::VectorXd rh;
         if (std::string e = Residuals(shifted, &rh); !e.empty()) {
           last_error_ = "finite difference of " + p.name + ": " + e;
           return false;
         }
-        J.col(static_cast<Eigen::Index>(i)) = (rh - r) / ((shifted[i] - values[i]) / p.scale);
+        J.col(static_cast<Eigen::Index>(i)) = (rh - r) / dz;
       }
     }
     return true;
@@ -102,7 +106,7 @@ class ProgressLine : public ceres::IterationCallback {
       std::string text = "  " + c_.effect + " iteration " + std::to_string(s.iteration);
       char value[64];
       for (size_t i = 0; i < c_.parameters.size(); ++i) {
-        std::snprintf(value, sizeof(value), " %s=%.4g", c_.parameters[i].name.c_str(), z_[i] * c_.parameters[i].scale);
+        std::snprintf(value, sizeof(value), " %s=%.4g", c_.parameters[i].name.c_str(), ToValue(c_.parameters[i], z_[i]));
         text += value;
       }
       o_.progress(text);
@@ -221,12 +225,12 @@ CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, c
     }
     auto* cost = new EffectCost(m.get(), sensors, c, meas, options, static_cast<int>(ev.residuals.size()));
     std::vector<double> z(k);
-    for (size_t i = 0; i < k; ++i) z[i] = initial[i] / c.parameters[i].scale;
+    for (size_t i = 0; i < k; ++i) z[i] = ToVariable(c.parameters[i], initial[i]);
     ceres::Problem problem;
     problem.AddResidualBlock(cost, nullptr, z.data());
     for (size_t i = 0; i < k; ++i) {
-      problem.SetParameterLowerBound(z.data(), static_cast<int>(i), c.parameters[i].lower / c.parameters[i].scale);
-      problem.SetParameterUpperBound(z.data(), static_cast<int>(i), c.parameters[i].upper / c.parameters[i].scale);
+      problem.SetParameterLowerBound(z.data(), static_cast<int>(i), ToVariable(c.parameters[i], c.parameters[i].lower));
+      problem.SetParameterUpperBound(z.data(), static_cast<int>(i), ToVariable(c.parameters[i], c.parameters[i].upper));
     }
     ceres::Solver::Options solver;
     solver.minimizer_type = ceres::TRUST_REGION;
@@ -250,7 +254,7 @@ CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, c
       return fit;
     }
     fit.converged = summary.termination_type == ceres::CONVERGENCE;
-    for (size_t i = 0; i < k; ++i) fit.values.push_back(z[i] * c.parameters[i].scale);
+    for (size_t i = 0; i < k; ++i) fit.values.push_back(ToValue(c.parameters[i], z[i]));
     // residuals and Jacobian at the optimum (in the parameters' units), for the standard errors
     Eigen::VectorXd r;
     if (std::string e = cost->Residuals(fit.values, &r); !e.empty()) {

@@ -70,7 +70,8 @@ struct CandidateFit {
 struct FitOptions {
   GapOptions gap;
   int max_iterations = 12;
-  // forward-difference step as a fraction of the parameter's scale
+  // forward-difference step of the optimiser's variable: a fraction of the parameter's scale, or of
+  // its value for a logarithmic parameter
   double relative_step = 1e-2;
   std::function<void(const std::string&)> progress;
 };
