@@ -395,6 +395,7 @@ bool RigFor(const std::string& scope, Rig* rig) {
   else if (applies == "valve=onoff with input=pwm") *rig = Pwm();
   else if (applies == "valve=proportional_5_3" || applies == "flow=sanville or flow=thin_plate") *rig = Proportional();
   else if (applies == "valve=proportional_per_chamber" || applies == "flow=thin_plate") *rig = PerChamber();
+  else if (applies == "valve=proportional_5_3 or valve=proportional_per_chamber") *rig = Proportional();
   else if (applies == "valve=onoff with flow=sanville or thin_plate") *rig = OnOffThinPlate();
   else if (applies == "pressure_model=identified") *rig = Identified();
   else if (applies == "cylinders with coulomb_friction") *rig = WithFriction();
@@ -526,7 +527,7 @@ TEST_F(ConfigTest, RejectsKeyThatDoesNotApplyToTheConfiguration) {
       {OnOff().Set("compressibility", "0.99"), "compressibility", "flow=thin_plate"},
       {Proportional().Set("delay_open", "1e-3"), "delay_open", "valve=onoff"},
       {Proportional().Set("port_area", "1e-6"), "P.port_area", "valve=onoff"},
-      {PerChamber().Set("spool_time_constant", "0"), "spool_time_constant", "valve=proportional_5_3"},
+      {PerChamber().Set("spool_gain", "2.5e-4"), "spool_gain", "valve=proportional_5_3"},
       {PerChamber().Set("c1", "5"), "P.c1", "pressure_model=identified"},
   };
   for (const Case& c : cases) ExpectKeyRejected(c.rig, c.key, "applies only to " + c.applies);

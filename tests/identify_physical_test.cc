@@ -268,8 +268,8 @@ TEST_F(PhysicalFitTest, RefusesWhatItCannotFitNamingCylinderAndKey) {
   auto error_of = [&](std::vector<FitKey> keys, const log::Log& l) { return Fit(l, std::move(keys)).error; };
   EXPECT_THAT(error_of({{"cyl", "P.discharge_coeficient", 0}}, log),
               HasSubstr("cylinder 'cyl': key 'P.discharge_coeficient': unknown key"));
-  EXPECT_THAT(error_of({{"cyl", "spool_time_constant", 0}}, log),
-              HasSubstr("key 'spool_time_constant': applies only to valve=proportional_5_3"));
+  EXPECT_THAT(error_of({{"cyl", "spool_gain", 0}}, log),
+              HasSubstr("key 'spool_gain': applies only to valve=proportional_5_3"));
   EXPECT_THAT(error_of({{"other", "P.dead_volume", 0}}, log), HasSubstr("other"));
   EXPECT_THAT(error_of({{"cyl", "P.flow", 0}}, log), HasSubstr("a choice"));
   // a key at 0 has no magnitude of its own to scale the optimiser's variable and its step

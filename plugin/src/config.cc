@@ -23,6 +23,7 @@ enum class AppliesTo {
   kPwm,              // valve=onoff input=pwm
   kProportional53,   // valve=proportional_5_3
   kPerChamber,       // valve=proportional_per_chamber
+  kProportional,     // valve=proportional_5_3 or proportional_per_chamber
   kIso6358,          // flow=iso6358
   kEllipticLaw,      // flow=iso6358 or sanville
   kAreaLaw,          // flow=sanville or thin_plate
@@ -85,8 +86,10 @@ const Param kParams[] = {
      "compressibility factor Z of the thin-plate law (paper 000 Table II: 0.99)", CYL(compressibility)},
     {"spool_gain", Scope::kCylinder, AppliesTo::kProportional53, "m/V", "0.00025", nullptr, 0, 0.01, true, false,
      "spool position gain k_v (paper 001 Table I)", CYL(spool_gain)},
-    {"spool_time_constant", Scope::kCylinder, AppliesTo::kProportional53, "s", "0.0042", nullptr, 0, 1, false, false,
-     "spool first-order lag tau_v (paper 001 eq. 1); 0 = no lag", CYL(spool_time_constant)},
+    {"spool_time_constant", Scope::kCylinder, AppliesTo::kProportional, "s", "derived", nullptr, 0, 1, false, false,
+     "spool first-order lag tau_v (paper 001 eq. 1); 0 = no lag. Default 0.0042 for proportional_5_3 (act of <name>.u: the spool position), 0 for proportional_per_chamber (when > 0 the act of <name>.uP / <name>.uN is each valve's lagged voltage)", CYL(spool_time_constant)},
+    {"spool_dead_time", Scope::kCylinder, AppliesTo::kProportional, "s", "0", nullptr, 0, 0.1, false, false,
+     "valve dead time T: the command reaches the spool through the (1,2) Pade approximant of exp(-s T), (1 - s T/3)/(1 + 2 s T/3 + (s T)^2/6) (states <name>.d1, <name>.d2 for proportional_5_3; <name>.dP1, <name>.dP2, <name>.dN1, <name>.dN2 per chamber); 0 = none", CYL(spool_dead_time)},
     {"u_max", Scope::kCylinder, AppliesTo::kProportional53, "V", "5", nullptr, 0, 100, true, false,
      "command saturation: the spool is driven by clip(u, -u_max, u_max)", CYL(u_max)},
     {"orifice_gradient", Scope::kCylinder, AppliesTo::kProportional53, "m^2/m", "0.0226", nullptr, 0, 1, true, false,
@@ -308,6 +311,7 @@ bool Applies(AppliesTo a, const CylinderConfig& c, const ChamberConfig* k) {
     case AppliesTo::kPwm: return c.valve == ValveKind::kOnOff && c.input == CommandInput::kPwm;
     case AppliesTo::kProportional53: return c.valve == ValveKind::kProportional53;
     case AppliesTo::kPerChamber: return c.valve == ValveKind::kProportionalPerChamber;
+    case AppliesTo::kProportional: return c.valve != ValveKind::kOnOff;
     case AppliesTo::kIso6358: return k && k->flow == FlowLaw::kIso6358;
     case AppliesTo::kEllipticLaw: return k && k->flow != FlowLaw::kThinPlate;
     case AppliesTo::kAreaLaw:
@@ -333,6 +337,7 @@ const char* AppliesText(AppliesTo a) {
     case AppliesTo::kPwm: return "valve=onoff with input=pwm";
     case AppliesTo::kProportional53: return "valve=proportional_5_3";
     case AppliesTo::kPerChamber: return "valve=proportional_per_chamber";
+    case AppliesTo::kProportional: return "valve=proportional_5_3 or valve=proportional_per_chamber";
     case AppliesTo::kIso6358: return "flow=iso6358";
     case AppliesTo::kEllipticLaw: return "flow=iso6358 or flow=sanville";
     case AppliesTo::kAreaLaw: return "flow=sanville or flow=thin_plate";
@@ -480,6 +485,10 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
   }
   // defaults derived from other keys
   if (!given_keys.count("p_atm")) c.p_atm = c.p_exhaust;
+  // paper 001's spool lag for the 5/3 valve; none for the per-chamber valves (paper 000 has none)
+  if (!given_keys.count("spool_time_constant")) {
+    c.spool_time_constant = c.valve == ValveKind::kProportional53 ? 0.0042 : 0.0;
+  }
   for (int k = 0; k < 2; ++k) {
     ChamberConfig& ch = c.chamber[k];
     auto given = [&](const char* key) { return given_keys.count(prefixed(k, key)) > 0; };
@@ -523,6 +532,18 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
     }
     if (c.chamber[k].atmosphere_leak_area > 0) {
       return fail(key, "not combined with atmosphere_leak_area in this version (the laminar atmosphere_leak_conductance is)");
+    }
+  }
+  for (int k = 0; k < 2; ++k) {
+    // the identified model of paper 000 maps the command voltage itself (its valve's dynamics are in its fit)
+    if (c.chamber[k].model != PressureModel::kIdentified) continue;
+    if (c.spool_dead_time > 0) {
+      return fail("spool_dead_time", "needs the physical pressure model in both chambers (" + prefixed(k, "pressure_model") +
+                                         " is identified: the identified model of paper 000 takes the command voltage)");
+    }
+    if (c.valve == ValveKind::kProportionalPerChamber && c.spool_time_constant > 0) {
+      return fail("spool_time_constant", "needs the physical pressure model in both chambers (" + prefixed(k, "pressure_model") +
+                                             " is identified: the identified model of paper 000 takes the command voltage)");
     }
   }
   bool delays = c.delay_open > 0 || c.delay_close > 0;

@@ -105,7 +105,9 @@ struct CylinderConfig {
   double compressibility = 0;      // Z of the thin-plate law
   // kProportional53 spool (paper 001 eq. 1)
   double spool_gain = 0;           // k_v, m/V
-  double spool_time_constant = 0;  // tau_v, s (0: spool follows the command at once)
+  double spool_time_constant = 0;  // tau_v, s (0: spool follows the command at once); also per chamber
+  // kProportional53 and kProportionalPerChamber: dead time of the command, (1,2) Pade approximant (valves.h)
+  double spool_dead_time = 0;      // T, s (0: none)
   double u_max = 0;                // V, command saturation
   double orifice_gradient = 0;     // w, m^2/m
   double deadband = 0;             // fraction of the full spool range 2 k_v u_max with no flow

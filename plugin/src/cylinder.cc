@@ -147,6 +147,8 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
     if (stateful && m->actuator_dyntype[id] != mjDYN_USER) {
       return fail(full, cfg.valve == ValveKind::kProportional53
                             ? "needs dyntype=\"user\": its act is the spool position (spool_time_constant > 0)"
+                        : cfg.valve == ValveKind::kProportionalPerChamber
+                            ? "needs dyntype=\"user\": its act is the valve's lagged voltage (spool_time_constant > 0)"
                             : "needs dyntype=\"user\": its act is the valve armature (delay_open/delay_close > 0)");
     }
     if (stateful && m->actuator_actlimited[id]) {
@@ -259,6 +261,10 @@ bool Cylinder::ChambersFollowEndVelocity() const {
   return physical && config_.step != ChamberStep::kExplicit;
 }
 
+int Cylinder::DelaySlot(int channel) const {
+  return (config_.valve == ValveKind::kProportional53 ? kDelay : kDelayPerChamber) + 2 * channel;
+}
+
 ValveInputs Cylinder::ReadValves(const mjModel* m, const mjData* d, bool zero_commands) const {
   ValveInputs in;
   in.time = d->time;
@@ -266,6 +272,9 @@ ValveInputs Cylinder::ReadValves(const mjModel* m, const mjData* d, bool zero_co
   for (int i = 0; i < 4; ++i) {
     if (command_id_[i] >= 0 && !zero_commands) in.command[i] = ClampedControl(m, d, command_id_[i]);
     if (state_id_[i] >= 0) in.state[i] = Act(m, d, state_id_[i]);
+  }
+  for (int ch = 0; ch < DelayChannels(config_); ++ch) {
+    for (int j = 0; j < 2; ++j) in.delay[ch][j] = Act(m, d, extra_state_id_[DelaySlot(ch) + j]);
   }
   return in;
 }
@@ -301,6 +310,12 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
     for (int id : extra_state_id_) {
       if (id >= 0) ActDot(m, d, id) = 0;
     }
+  }
+  // spool_dead_time: each delay line over the step with its command held, exactly (valves.h, ValveSignal)
+  for (int ch = 0; ch < DelayChannels(config_); ++ch) {
+    double end[2];
+    ProportionalSignal(config_, ch, valves).DelayState(h, end);
+    for (int j = 0; j < 2; ++j) ActDot(m, d, extra_state_id_[DelaySlot(ch) + j]) = (end[j] - valves.delay[ch][j]) / h;
   }
   // the chambers' models; a reservoir's pressure at the start of the step on the supply ports
   const ChamberModel* models = chamber_model_;

@@ -46,7 +46,12 @@ class Cylinder {
   // or its LuGre bristles)
   bool NeedsEndVelocity() const;
   // extra-state slots of the role table (roles.cc): index of each Role::kState row
-  enum ExtraState { kBristle = 0, kTemperatureP = 1, kTemperatureN = 2, kLineP = 3, kLineN = 4, kExtraStateCount };
+  // (spool_dead_time: the delay line of command channel ch, states x1, x2, is at slots kDelay + 2 ch + 0, 1 for
+  // the 5/3 valve's d1, d2, and kDelayPerChamber + 2 ch + 0, 1 for dP1, dP2, dN1, dN2)
+  enum ExtraState {
+    kBristle = 0, kTemperatureP = 1, kTemperatureN = 2, kLineP = 3, kLineN = 4, kDelay = 5, kDelayPerChamber = 7,
+    kExtraStateCount = 11
+  };
 
   // Advances the chambers and valve states over the step: writes the act_dot of the
   // chamber actuators ((p(t + h) - p(t)) / h with the configured chamber step) and of
@@ -65,6 +70,8 @@ class Cylinder {
 
  private:
   ValveInputs ReadValves(const mjModel* m, const mjData* d, bool zero_commands) const;
+  // the extra-state slot of state x1 (x2: the next) of command channel ch's dead-time delay line
+  int DelaySlot(int channel) const;
   VolumePath Volume(const mjModel* m, const mjData* d, int chamber, double x_rate) const;
 
   CylinderConfig config_;

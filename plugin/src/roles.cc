@@ -15,6 +15,9 @@ bool Pwm(const CylinderConfig* c) { return c->valve == ValveKind::kOnOff && c->i
 bool Proportional53(const CylinderConfig* c) { return c->valve == ValveKind::kProportional53; }
 bool SpoolLag(const CylinderConfig* c) { return c->valve == ValveKind::kProportional53 && ValvesHaveState(*c); }
 bool PerChamber(const CylinderConfig* c) { return c->valve == ValveKind::kProportionalPerChamber; }
+bool PerChamberLag(const CylinderConfig* c) { return PerChamber(c) && ValvesHaveState(*c); }
+bool DeadTime53(const CylinderConfig* c) { return c->valve == ValveKind::kProportional53 && DelayChannels(*c) > 0; }
+bool DeadTimePerChamber(const CylinderConfig* c) { return PerChamber(c) && DelayChannels(*c) > 0; }
 bool Friction(const CylinderConfig* c) { return c->coulomb_friction.has_value(); }
 bool LuGre(const CylinderConfig* c) { return c->friction_model == FrictionModel::kLuGre; }
 bool Energy(const CylinderConfig* c) { return c->thermal_model == ThermalModel::kEnergy; }
@@ -24,6 +27,12 @@ bool LineN(const CylinderConfig* c) { return c->chamber[1].line_volume > 0; }
 constexpr char kCommanded[] = "this valve arrangement is commanded through its ctrl";
 constexpr char kOnOffRequired[] =
     "valve=onoff with input=valves (command); delay_open or delay_close > 0 (armature state)";
+constexpr char kPerChamberRequired[] =
+    "valve=proportional_per_chamber (command); spool_time_constant > 0 (lagged voltage)";
+// the delay line of spool_dead_time (valves.h, ValveSignal: the (1,2) Pade approximant of exp(-s T))
+constexpr char kDelayLine1[] =
+    "delay line at rest on a 0 V command (act = x1, the delayed command, V: mj_resetData's ctrl = 0); at rest on u: x1 = u";
+constexpr char kDelayLine2[] = "delay line at rest (x2 = 0 at rest on any command)";
 constexpr char kArmature[] =
     "on/off valve command (0 closed, 1 open); with delays its act is the armature position, the project's own model";
 
@@ -50,10 +59,14 @@ const RoleSpec kRoles[] = {
      "valve=proportional_5_3 (command); spool_time_constant > 0 (spool state)", "V (ctrl), m (act)",
      "spool centred (x_v = 0)", "5/3 valve voltage; with a lag its act is the spool position x_v (paper 001 eq. 1)",
      kCommanded},
-    {"uP", RoleOwner::kCylinder, Role::kCommand, 0, PerChamber, Never, Never, "valve=proportional_per_chamber",
-     "V (ctrl)", "", "voltage of chamber P's valve (paper 000 eq. 3)", kCommanded},
-    {"uN", RoleOwner::kCylinder, Role::kCommand, 1, PerChamber, Never, Never, "valve=proportional_per_chamber",
-     "V (ctrl)", "", "voltage of chamber N's valve (paper 000 eq. 3)", kCommanded},
+    {"uP", RoleOwner::kCylinder, Role::kCommand, 0, PerChamber, PerChamberLag, Never, kPerChamberRequired,
+     "V (ctrl), V (act)", "lagged voltage 0 V, at rest on the 0 V command mj_resetData gives",
+     "voltage of chamber P's valve (paper 000 eq. 3); with a lag its act is the lagged voltage (paper 001 eq. 1's spool lag)",
+     kCommanded},
+    {"uN", RoleOwner::kCylinder, Role::kCommand, 1, PerChamber, PerChamberLag, Never, kPerChamberRequired,
+     "V (ctrl), V (act)", "lagged voltage 0 V, at rest on the 0 V command mj_resetData gives",
+     "voltage of chamber N's valve (paper 000 eq. 3); with a lag its act is the lagged voltage (paper 001 eq. 1's spool lag)",
+     kCommanded},
     // cylinder: forces
     {"friction", RoleOwner::kCylinder, Role::kFriction, 0, Never, Never, Friction, "coulomb_friction", "N (N m)", "",
      "seal friction as bias: the Stribeck give-back below the transmission's frictionloss (the static level), or the whole LuGre force (friction_model=lugre)",
@@ -77,6 +90,28 @@ const RoleSpec kRoles[] = {
     {"LN", RoleOwner::kCylinder, Role::kState, 4, Never, LineN, Never, "N.line_volume > 0", "Pa",
      "p_line = p_atm (act = p_line - p_atm, gauge)", "pressure in the line between chamber N's valve ports and chamber N",
      "its act is the pressure in chamber N's line"},
+    {"d1", RoleOwner::kCylinder, Role::kState, 5, Never, DeadTime53, Never, "valve=proportional_5_3 with spool_dead_time > 0",
+     "V", kDelayLine1, "dead time of the 5/3 valve's command: state x1 of the (1,2) Pade approximant of exp(-s T), the delayed command",
+     "its act is the first state of the valve's dead-time delay line"},
+    {"d2", RoleOwner::kCylinder, Role::kState, 6, Never, DeadTime53, Never, "valve=proportional_5_3 with spool_dead_time > 0",
+     "V", kDelayLine2, "dead time of the 5/3 valve's command: state x2 of the (1,2) Pade approximant of exp(-s T)",
+     "its act is the second state of the valve's dead-time delay line"},
+    {"dP1", RoleOwner::kCylinder, Role::kState, 7, Never, DeadTimePerChamber, Never,
+     "valve=proportional_per_chamber with spool_dead_time > 0", "V", kDelayLine1,
+     "dead time of uP: state x1 of the (1,2) Pade approximant of exp(-s T), the delayed command",
+     "its act is the first state of chamber P's valve dead-time delay line"},
+    {"dP2", RoleOwner::kCylinder, Role::kState, 8, Never, DeadTimePerChamber, Never,
+     "valve=proportional_per_chamber with spool_dead_time > 0", "V", kDelayLine2,
+     "dead time of uP: state x2 of the (1,2) Pade approximant of exp(-s T)",
+     "its act is the second state of chamber P's valve dead-time delay line"},
+    {"dN1", RoleOwner::kCylinder, Role::kState, 9, Never, DeadTimePerChamber, Never,
+     "valve=proportional_per_chamber with spool_dead_time > 0", "V", kDelayLine1,
+     "dead time of uN: state x1 of the (1,2) Pade approximant of exp(-s T), the delayed command",
+     "its act is the first state of chamber N's valve dead-time delay line"},
+    {"dN2", RoleOwner::kCylinder, Role::kState, 10, Never, DeadTimePerChamber, Never,
+     "valve=proportional_per_chamber with spool_dead_time > 0", "V", kDelayLine2,
+     "dead time of uN: state x2 of the (1,2) Pade approximant of exp(-s T)",
+     "its act is the second state of chamber N's valve dead-time delay line"},
     // supply reservoir
     {"pressure", RoleOwner::kReservoir, Role::kReservoir, 0, Never, Always, Never, "every reservoir", "Pa",
      "p = p_supply of the cylinders it feeds, a charged reservoir (act = p - p_supply)",

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <utility>
 
 namespace pneumatic {
@@ -138,11 +139,63 @@ double SpoolOpening(const CylinderConfig& c, double spool_position) {
 
 bool ValvesHaveState(const CylinderConfig& c) {
   if (c.valve == ValveKind::kOnOff) return HasDelays(c);
-  if (c.valve == ValveKind::kProportional53) return c.spool_time_constant > 0;
-  return false;
+  return c.spool_time_constant > 0;  // the 5/3 valve's spool, the per-chamber valves' lagged voltages
+}
+
+int DelayChannels(const CylinderConfig& c) {
+  if (c.valve == ValveKind::kOnOff || !(c.spool_dead_time > 0)) return 0;
+  return c.valve == ValveKind::kProportional53 ? 1 : 2;
+}
+
+ValveSignal::ValveSignal(double command, double dead_time, const double delay[2], double lag, double lag_start,
+                         double gain)
+    : u_(command), dead_time_(dead_time), lag_(lag), gain_(gain) {
+  if (dead_time_ > 0) e1_ = delay[0] - command, e2_ = delay[1];
+  sigma0_ = lag_ > 0 ? lag_start - gain * command : 0.0;
+}
+
+void ValveSignal::DelayState(double t, double out[2]) const {
+  if (!(dead_time_ > 0)) {
+    out[0] = u_, out[1] = 0;
+    return;
+  }
+  // e(t) = exp(A t) e(0), the closed form of valves.h (project's own realisation of the (1,2) Pade approximant)
+  const double theta = t / dead_time_, decay = std::exp(-2 * theta);
+  const double c = std::cos(std::sqrt(2.0) * theta), s = std::sin(std::sqrt(2.0) * theta) / std::sqrt(2.0);
+  out[0] = u_ + decay * (c * e1_ + s * (4 * e1_ + 3 * e2_));
+  out[1] = decay * (c * e2_ + s * (-6 * e1_ - 4 * e2_));
+}
+
+double ValveSignal::Delayed(double t) const {
+  double x[2];
+  DelayState(t, x);
+  return x[0];
+}
+
+double ValveSignal::At(double t) const {
+  if (!(lag_ > 0)) return gain_ * Delayed(t);
+  const double target = gain_ * u_, fade = std::exp(-t / lag_);
+  // paper 001 eq. (1), the first-order lag, solved exactly for a held input
+  if (!(dead_time_ > 0)) return target + sigma0_ * fade;
+  // driven by the delayed command u + e1(t), e1(t) = Re[K exp(lambda t)] (valves.h)
+  const std::complex<double> lambda(-2 / dead_time_, std::sqrt(2.0) / dead_time_);
+  const std::complex<double> k(e1_, -(4 * e1_ + 3 * e2_) / std::sqrt(2.0));
+  const std::complex<double> forced = k * (std::exp(lambda * t) - fade) / (1.0 + lambda * lag_);
+  return target + sigma0_ * fade + gain_ * forced.real();
+}
+
+ValveSignal ProportionalSignal(const CylinderConfig& c, int channel, const ValveInputs& in) {
+  // 5/3: the valve's input saturates at +-u_max before the delay and the spool (paper 001 eq. 1)
+  bool five_three = c.valve == ValveKind::kProportional53;
+  double u = five_three ? std::clamp(in.command[0], -c.u_max, c.u_max) : in.command[channel];
+  return ValveSignal(u, c.spool_dead_time, in.delay[channel], c.spool_time_constant, in.state[channel],
+                     five_three ? c.spool_gain : 1.0);
 }
 
 double ValveStateAtEnd(const CylinderConfig& c, int valve, const ValveInputs& in) {
+  if (c.valve != ValveKind::kOnOff && (c.spool_dead_time > 0 || c.valve == ValveKind::kProportionalPerChamber)) {
+    return ProportionalSignal(c, valve, in).At(in.step);
+  }
   if (c.valve == ValveKind::kProportional53) {
     // spool first-order lag, paper 001 eq. (1), solved exactly over the held command
     double target = c.spool_gain * std::clamp(in.command[0], -c.u_max, c.u_max);
@@ -160,10 +213,20 @@ PortSchedule::PortSchedule(const CylinderConfig& c, int chamber, const ValveInpu
   switch (c.valve) {
     case ValveKind::kProportional53:
       spool_ = true;
+      if (c.spool_dead_time > 0) {
+        signal_driven_ = true;
+        signal_ = ProportionalSignal(c, 0, in);
+        return;
+      }
       spool_target_ = c.spool_gain * std::clamp(in.command[0], -c.u_max, c.u_max);
       spool_start_ = c.spool_time_constant > 0 ? in.state[0] : spool_target_;
       return;
     case ValveKind::kProportionalPerChamber:
+      if (c.spool_dead_time > 0 || c.spool_time_constant > 0) {
+        signal_driven_ = true;
+        signal_ = ProportionalSignal(c, chamber, in);
+        return;
+      }
       segments_.push_back(ProportionalValveAreas(k, in.command[chamber], c.deadband_voltage));
       return;
     case ValveKind::kOnOff:
@@ -196,10 +259,16 @@ PortSchedule::PortSchedule(const CylinderConfig& c, int chamber, const ValveInpu
 }
 
 PortOpenings PortSchedule::At(double tau) const {
+  if (signal_driven_ && !spool_) {
+    // paper 000 eq. (3) at the delayed and lagged voltage
+    return ProportionalValveAreas(config_->chamber[chamber_], signal_.At(tau), config_->deadband_voltage);
+  }
   if (spool_) {
     const CylinderConfig& c = *config_;
     double spool = spool_target_;
-    if (c.spool_time_constant > 0) {
+    if (signal_driven_) {
+      spool = signal_.At(tau);
+    } else if (c.spool_time_constant > 0) {
       spool += (spool_start_ - spool_target_) * std::exp(-tau / c.spool_time_constant);
     }
     // x_v >= 0: supply -> P and N -> exhaust; x_v < 0 the reverse (rigs.md rig B)
