@@ -8,7 +8,7 @@
 // truth uses a form the candidate library does not (truth -> candidate):
 //   friction       LuGre (dynamic stick-slip, static above Coulomb)  -> Coulomb (joint frictionloss)
 //   valve_delay    on/off armature delays that lose short pulses     -> (same keys: the armature model)
-//                  5/3 spool dead time (Pade), if the plugin has it  -> slower first-order spool
+//                  proportional valves' dead time (Pade)             -> a slower first-order spool
 //   leakage        laminar leaks                                     -> orifice leaks, if the plugin has them
 //   heat_transfer  gas energy equation, per-chamber wall conductance -> one conductance, or the polytropic index
 //   supply_drop    a shared reservoir behind a restrictive line      -> a lower constant supply pressure
@@ -121,37 +121,41 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
   std::vector<Truth> t;
   t.push_back({"none", {}, {}});
   if (valve == "onoff") {
-    t.push_back({"valve delays 4 ms open, 2 ms close", {"valve_delay"}, {{"cyl", {}, {}, {{"delay_open", "0.004"}, {"delay_close", "0.002"}}}}});
+    t.push_back({"valve delays 4 ms open, 2 ms close", {"valve_delay"}, {{"cyl", {}, {}, {}, {{"delay_open", "0.004"}, {"delay_close", "0.002"}}}}});
   } else if (valve == "proportional_5_3" && HasKey("spool_dead_time")) {
-    t.push_back({"spool dead time 8 ms", {"valve_delay"}, {{"cyl", {"dP", "dN"}, {}, {{"spool_dead_time", "0.008"}}}}});
+    t.push_back({"spool dead time 8 ms (Pade)", {"valve_delay"}, {{"cyl", {"d1", "d2"}, {}, {}, {{"spool_dead_time", "0.008"}}}}});
   } else if (valve == "proportional_5_3") {
-    t.push_back({"spool 4x slower", {"valve_delay"}, {{"cyl", {}, {}, {{"spool_time_constant", "0.0168"}}}}});
+    t.push_back({"spool 4x slower", {"valve_delay"}, {{"cyl", {}, {}, {}, {{"spool_time_constant", "0.0168"}}}}});
+  }
+  if (valve == "proportional_per_chamber" && HasKey("spool_dead_time")) {
+    t.push_back({"valve dead time 8 ms (Pade)", {"valve_delay"},
+                 {{"cyl", {"dP1", "dP2", "dN1", "dN2"}, {}, {}, {{"spool_dead_time", "0.008"}}}}});
   }
   if (valve == "proportional_5_3") {
-    t.push_back({"spool deadband 12 %", {"valve_deadband"}, {{"cyl", {}, {}, {{"deadband", "0.12"}}}}});
+    t.push_back({"spool deadband 12 %", {"valve_deadband"}, {{"cyl", {}, {}, {}, {{"deadband", "0.12"}}}}});
   } else if (valve == "proportional_per_chamber" && HasKey("deadband_voltage")) {
-    t.push_back({"deadband 0.3 V", {"valve_deadband"}, {{"cyl", {}, {}, {{"deadband_voltage", "0.3"}}}}});
+    t.push_back({"deadband 0.3 V", {"valve_deadband"}, {{"cyl", {}, {}, {}, {{"deadband_voltage", "0.3"}}}}});
   }
   if (HasKey("friction_model")) {
     const double fc = 0.03 * rig.max_force;
     t.push_back({"LuGre friction, Coulomb " + num(fc) + " N, static " + num(2 * fc) + " N", {"friction"},
-                 {{"cyl", {"z"}, {"friction"}, {{"friction_model", "lugre"}, {"coulomb_friction", num(fc)}, {"static_friction", num(2 * fc)}, {"stribeck_velocity", "0.01"}}}}});
+                 {{"cyl", {"z"}, {"friction"}, {}, {{"friction_model", "lugre"}, {"coulomb_friction", num(fc)}, {"static_friction", num(2 * fc)}, {"stribeck_velocity", "0.01"}}}}});
   }
   {
     // laminar: about 2 % of a valve's flow at a 3 bar difference across the piston
     const double g = valve == "proportional_per_chamber" ? 2e-10 : valve == "onoff" ? 1e-10 : 2e-9;
     t.push_back({"laminar leak across the piston " + num(g) + " kg/(s Pa)", {"leakage"},
-                 {{"cyl", {}, {}, {{"piston_leak_conductance", num(g)}, {"P.atmosphere_leak_conductance", num(g / 4)}}}}});
+                 {{"cyl", {}, {}, {}, {{"piston_leak_conductance", num(g)}, {"P.atmosphere_leak_conductance", num(g / 4)}}}}});
   }
   if (HasKey("thermal_model")) {
     // wall time constants m c_v / (h A) of 0.3 s (P) and 0.6 s (N) at 3 bar in a mid-stroke chamber
     const double mcv = 3e5 * rig.mid_volume / (293 * 0.4);
     t.push_back({"gas energy equation, wall time constants 0.3 s / 0.6 s", {"heat_transfer"},
-                 {{"cyl", {"TP", "TN"}, {}, {{"thermal_model", "energy"}, {"P.wall_heat_conductance", num(mcv / 0.3)}, {"N.wall_heat_conductance", num(mcv / 0.6)}}}}});
+                 {{"cyl", {"TP", "TN"}, {}, {}, {{"thermal_model", "energy"}, {"P.wall_heat_conductance", num(mcv / 0.3)}, {"N.wall_heat_conductance", num(mcv / 0.6)}}}}});
   }
   if (HasKey("line_volume")) {
     t.push_back({"tube of half the mid-stroke volume behind a restriction", {"line_dynamics"},
-                 {{"cyl", {"LP", "LN"}, {}, {{"line_volume", num(0.5 * rig.mid_volume)}, {"line_conductance", num(1.5 * rig.valve_conductance)}}}}});
+                 {{"cyl", {"LP", "LN"}, {}, {}, {{"line_volume", num(0.5 * rig.mid_volume)}, {"line_conductance", num(1.5 * rig.valve_conductance)}}}}});
   }
   t.push_back({"payload: mass x 5", {"payload"}, {}, 4 * rig.mass});
   t.push_back({"p_P sensor offset 15 kPa, gain 1.03", {"sensor_bias"}, {}, 0, 15000, 1.03});

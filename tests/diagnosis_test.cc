@@ -125,14 +125,14 @@ TEST(DiagnosisResidualTests, LjungBoxSeparatesWhiteNoiseFromAnAutoregression) {
 
 TEST(DiagnosisCandidates, EditedModelGainsTheEffectStatesAndKeys) {
   std::string error;
-  ModelPtr m = LoadEditedModel(kRigC, {{"cyl", {"TP", "TN"}, {}, {{"thermal_model", "energy"}, {"wall_heat_conductance", "0.02"}}}},
+  ModelPtr m = LoadEditedModel(kRigC, {{"cyl", {"TP", "TN"}, {}, {}, {{"thermal_model", "energy"}, {"wall_heat_conductance", "0.02"}}}},
                                &error);
   ASSERT_TRUE(m) << error;
   EXPECT_EQ(*GetChoice(m.get(), "cyl", "thermal_model", &error), "energy");
   EXPECT_DOUBLE_EQ(*GetParameter(m.get(), "cyl", "P.wall_heat_conductance", &error), 0.02);
   EXPECT_GE(mj_name2id(m.get(), mjOBJ_ACTUATOR, "cyl.TN"), 0);
   // a model edit that is wrong is refused with the model's own message
-  EXPECT_FALSE(LoadEditedModel(kRigC, {{"cyl", {}, {}, {{"thermal_model", "energy"}}}}, &error));
+  EXPECT_FALSE(LoadEditedModel(kRigC, {{"cyl", {}, {}, {}, {{"thermal_model", "energy"}}}}, &error));
   EXPECT_NE(error.find("rig_per_chamber.xml"), std::string::npos) << error;
 }
 

@@ -94,6 +94,17 @@ ModelPtr LoadEditedModel(const std::string& path, const std::vector<ModelEdit>& 
     xml = Replace(xml, end, 0, added);
     // state actuators: on the chamber P actuator's transmission, after every other actuator
     // (MuJoCo 2.2 wants stateless actuators first)
+    for (const std::string& suffix : e.stateful_commands) {
+      const size_t name_at = xml.find("\"" + e.cylinder + "." + suffix + "\"");
+      const size_t element = name_at == std::string::npos ? name_at : xml.rfind('<', name_at);
+      const size_t element_end = element == std::string::npos ? element : xml.find('>', name_at);
+      if (element == std::string::npos || xml.substr(element, element_end - element).find("dyntype") != std::string::npos) {
+        *error = path + ": cannot give actuator '" + e.cylinder + "." + suffix + "' a state (not found, or it has a dyntype)";
+        return ModelPtr(nullptr, mj_deleteModel);
+      }
+      const size_t after_tag = xml.find_first_of(" \t\n", element);
+      xml = Replace(xml, after_tag, 0, " dyntype=\"user\"");
+    }
     if (!e.state_actuators.empty() || !e.force_actuators.empty()) {
       const size_t chamber = xml.find("\"" + e.cylinder + ".P\"");
       const size_t element = chamber == std::string::npos ? chamber : xml.rfind('<', chamber);
@@ -169,6 +180,12 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
       c->form = "a slower spool: first-order spool lag";
       c->parameters.push_back(
           KeyParameter(n, "spool_time_constant", Parameter(m, n, "spool_time_constant", 0), 0, 0.1, 2e-3));
+    } else if (valve == "proportional_per_chamber" && HasKey("spool_dead_time")) {
+      // each chamber's valve voltage behind a first-order lag (its act: the lagged voltage)
+      const double tau = Parameter(m, n, "spool_time_constant", 0);
+      c->form = "a slower valve: first-order lag of each chamber's valve voltage";
+      if (tau == 0) c->edits.push_back({n, {}, {}, {"uP", "uN"}, {{"spool_time_constant", "0.002"}}});
+      c->parameters.push_back(KeyParameter(n, "spool_time_constant", tau > 0 ? tau : 0.002, 1e-4, 0.1, 2e-3, true));
     }
   });
   // valve_deadband: no flow for small spool displacements
@@ -229,7 +246,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
       const double conductance = 3e5 * volume / (Parameter(m, n, "temperature", 293) * 0.4) / 1.0;
       char text[32];
       std::snprintf(text, sizeof(text), "%.6g", conductance);
-      c->edits.push_back({n, {"TP", "TN"}, {}, {{"thermal_model", "energy"}, {"wall_heat_conductance", text}}});
+      c->edits.push_back({n, {"TP", "TN"}, {}, {}, {{"thermal_model", "energy"}, {"wall_heat_conductance", text}}});
       c->parameters.push_back(KeyParameter(n, "wall_heat_conductance", conductance, 1e-3 * conductance, 1e3 * conductance, conductance, true));
     } else {
       c->form = "polytropic index of both chambers";
@@ -249,7 +266,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
                  [&](const CylinderSeries& cyl, Candidate* c) {
                    const std::string& n = cyl.info.name;
                    const double v0 = Parameter(m, n, "P.dead_volume", 1e-6);
-                   c->edits.push_back({n, {"LP", "LN"}, {}, {{"line_volume", std::to_string(v0)}, {"line_conductance", "1e-8"}}});
+                   c->edits.push_back({n, {"LP", "LN"}, {}, {}, {{"line_volume", std::to_string(v0)}, {"line_conductance", "1e-8"}}});
                    c->parameters.push_back(KeyParameter(n, "line_volume", v0, 1e-3 * v0, 100 * v0, v0, true));
                    c->parameters.push_back(KeyParameter(n, "line_conductance", 1e-8, 1e-11, 1e-5, 1e-8, true));
                  });

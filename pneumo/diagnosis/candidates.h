@@ -33,6 +33,7 @@ struct ModelEdit {
   std::string cylinder;
   std::vector<std::string> state_actuators;                 // suffixes, e.g. "TP", "TN"
   std::vector<std::string> force_actuators;                 // stateless, with a user bias: "friction"
+  std::vector<std::string> stateful_commands;               // existing command actuators given dyntype="user"
   std::vector<std::pair<std::string, std::string>> keys;    // e.g. {"thermal_model", "energy"}
 };
 

@@ -5,6 +5,7 @@
 #include <limits>
 
 #include <ceres/ceres.h>
+#include <glog/logging.h>
 
 #include "identification/uncertainty.h"
 
@@ -196,6 +197,13 @@ Evaluated Evaluate(const mjModel* m, const SensorModel& sensors, const Measureme
 
 CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, const Candidate& c, const Measurements& meas,
                           const FitOptions& options) {
+  // Ceres logs an evaluation that fails (a trial step the model refuses) through glog on stderr; the
+  // fit reports its own failures, so only fatal glog messages are let through
+  static const bool quiet_glog = [] {
+    FLAGS_minloglevel = google::GLOG_FATAL;
+    return true;
+  }();
+  (void)quiet_glog;
   CandidateFit fit;
   SensorModel sensors;
   Scenario with_edits = base;
