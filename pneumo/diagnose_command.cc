@@ -91,7 +91,7 @@ std::string Html(const dg::Diagnosis& d, const DiagnoseCommandOptions& o) {
        "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:4px 8px;text-align:right}"
        "th{background:#f3f3f3}td:first-child,th:first-child{text-align:left}.verdict{font-size:1.4em;padding:.6em 1em;"
        "background:#eef5ff;border-left:6px solid #3a76d8}img{max-width:100%;border:1px solid #ddd;margin:.5em 0}"
-       ".yes{color:#167a16;font-weight:bold}.failed{color:#b00}</style></head><body>\n";
+       ".yes{color:#167a16;font-weight:bold}.failed{color:#b00}td.text{text-align:left}</style></head><body>\n";
   h << "<h1>Sim-to-real diagnosis</h1>\n<p>Model <code>" << Escape(o.model_path) << "</code>; " << Escape(d.split) << " ("
     << d.train_rows << " training rows, " << d.heldout_rows << " held-out rows; " << Format("%.1f", d.seconds) << " s).</p>\n";
   h << "<div class=\"verdict\">Verdict: <b>" << Escape(d.effects.empty() ? std::string("none") : all) << "</b><br>Held-out gap "
@@ -108,7 +108,8 @@ std::string Html(const dg::Diagnosis& d, const DiagnoseCommandOptions& o) {
     }
     h << "</table>\n";
   }
-  h << "<h2>Measured and simulated, before and after</h2><img src=\"signals.png\" alt=\"signals\">\n";
+  h << "<h2>Measured and simulated, before and after</h2><img src=\"signals.png\" alt=\"signals\">\n"
+       "<img src=\"closeup.png\" alt=\"close-up of the worst window\">\n";
   h << "<h2>Where the gap lies</h2><img src=\"where.png\" alt=\"gap by regime and over time\">\n<table><tr><th>signal</th>"
        "<th>full model</th><th>pneumatic side (along the measured motion)</th><th>mechanical side (from the measured pressures)</th>"
        "<th>full model after</th></tr>\n";
@@ -129,10 +130,10 @@ std::string Html(const dg::Diagnosis& d, const DiagnoseCommandOptions& o) {
     for (const dg::CandidateResult& c : round.ranking) {
       std::string params;
       for (const dg::ParameterResult& p : c.parameters) params += Escape(p.name) + " = " + Format("%.3g", p.value) + " " + Escape(p.unit) + "<br>";
-      h << "<tr><td>" << c.effect << "</td><td>" << Escape(c.form) << "</td><td>" << Format("%.4f", c.heldout_gap) << "</td><td>"
+      h << "<tr><td>" << c.effect << "</td><td class=\"text\">" << Escape(c.form) << "</td><td>" << Format("%.4f", c.heldout_gap) << "</td><td>"
         << Format("%.1f %%", 100 * c.improvement) << "</td><td>" << Format("%.1f", c.delta_ic) << "</td><td>"
-        << (c.explains ? "<span class=\"yes\">yes</span>" : "no") << "</td><td>" << params << "</td><td"
-        << (c.status == "fitted" ? ">" : " class=\"failed\">") << Escape(c.status) << "</td></tr>\n";
+        << (c.explains ? "<span class=\"yes\">yes</span>" : "no") << "</td><td class=\"text\">" << params << "</td><td"
+        << (c.status == "fitted" ? " class=\"text\">" : " class=\"text failed\">") << Escape(c.status) << "</td></tr>\n";
     }
     h << "</table>\n";
   }

@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Plots of `pneumo diagnose --report DIR`: reads DIR/diagnosis.json and DIR/series.csv, writes
-signals.png (measured vs simulated before and after, the gap's regimes shaded), where.png (the gap
+signals.png (measured vs simulated before and after), closeup.png (the worst window and its
+neighbours), where.png (the gap
 per regime and over time), ranking_<round>.png (held-out shrink of every candidate) and
 whiteness.png (residual autocorrelation before and after)."""
 import csv
@@ -43,6 +44,30 @@ def main(out_dir):
     fig.savefig(f"{out_dir}/signals.png", dpi=90)
     plt.close(fig)
 
+    # a close look: 1.5 s around the prediction window the model as given gets most wrong
+    t = report["over_time"]
+    worst = max(range(len(t["gap_before"])), key=lambda i: t["gap_before"][i] or 0)
+    t0 = t["window_start_s"][worst] - 0.5
+    rows_zoom = [i for i, x in enumerate(time) if t0 <= x <= t0 + 1.5]
+    fig, axes = plt.subplots(len(signals), 1, figsize=(11, 2.4 * len(signals)), sharex=True)
+    for ax, s in zip(axes, signals):
+        unit, factor = ("kPa", 1e-3) if ".p_" in s else ("mm", 1e3)
+        zt = [time[i] for i in rows_zoom]
+        for key, color, label in ((".measured", "0.45", "measured"), (".before", "tab:red", "model as given"),
+                                  (".after", "tab:blue", "with " + verdict)):
+            values = column(s + key)
+            ax.plot(zt, [values[i] * factor for i in rows_zoom], color=color, lw=1.0, label=label,
+                    marker="." if key == ".measured" else None, ms=2)
+        ax.set_ylabel(f"{s} ({unit})")
+        ax.grid(alpha=0.3)
+    axes[0].legend(loc="upper right", ncol=3, fontsize=8)
+    axes[0].set_title(f"Close-up: the window with the largest gap before (t = {t['window_start_s'][worst]:.2f} s); "
+                      "each window restarts from the measured state")
+    axes[-1].set_xlabel("time (s)")
+    fig.tight_layout()
+    fig.savefig(f"{out_dir}/closeup.png", dpi=90)
+    plt.close(fig)
+
     # where: per regime and over time
     fig, (a, b) = plt.subplots(1, 2, figsize=(12, 3.8))
     regimes = list(report["before"]["regimes"].keys())
@@ -53,7 +78,8 @@ def main(out_dir):
     a.bar([i + 0.2 for i in x], after, width=0.4, color="tab:blue", label="with " + verdict)
     a.axhline(report["verdict"]["heldout_gap_before"], color="tab:red", ls="--", lw=0.8)
     a.set_xticks(list(x))
-    a.set_xticklabels([f"{k}\n{100 * report['regime_fraction'][k]:.0f} % of rows" for k in regimes], fontsize=7)
+    a.set_xticklabels([f"{k} ({100 * report['regime_fraction'][k]:.0f} %)" for k in regimes], fontsize=7, rotation=30,
+                      ha="right")
     a.set_ylabel("normalised RMS gap")
     a.set_title("Gap by regime (dashed: overall)")
     a.legend(fontsize=8)
