@@ -308,6 +308,10 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
       r.accepted = best.effect;
       SensorModel s;
       ModelPtr with = BuildScenario(model_path, scenario, *held, &s, &error);
+      if (!with) {
+        out.error = error;
+        return out;
+      }
       base_held = Evaluate(with.get(), s, *held, held_gap);
       break;
     }

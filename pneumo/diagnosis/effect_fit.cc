@@ -269,8 +269,7 @@ CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, c
       fit.error = "at the fitted values: " + e;
       return fit;
     }
-    fit.train_gap_after = std::sqrt(r.squaredNorm() / static_cast<double>(r.size()));
-    // the same normalisation as Evaluate's gap needs per-signal means; recompute it properly
+    // the gap (a mean over signals of per-signal means, not the plain RMS of r)
     {
       ModelPtr at(mj_copyModel(nullptr, m.get()), mj_deleteModel);
       SensorModel s2 = sensors;
