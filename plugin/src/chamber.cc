@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 
 namespace pneumatic {
 
@@ -615,17 +616,18 @@ GasState EnergyPressureStep(const ChamberModel& k, const PortSchedule& ports, co
 namespace {
 
 
-// one linearly implicit Euler substep of LinePressureStep (Rosenbrock-Euler: backward Euler with the
-// flows linearised at the substep's start, e.g. Hairer and Wanner, Solving ODEs II, Section IV.7): line
-// and chamber pressures at its end, and the mass that entered the line through the supply port. The
-// chamber's compression by the piston is taken exactly, p_c = p0 (v0/v1)^(alpha n) as in the polytropic
-// step; the unknowns are the changes dL = p_L1 - p_L0 and dp = p1 - p_c of
-//   V_L / (r T) dL       = s (Q_valve(p_L) - q),            q = Q_r(p_L, p) the restriction's flow,
-//   v1 / (n r T) dp      = s (q - G_atm (p - p_atm)),
-// with Q_valve and Q_r linear about (p_L0, p_c): a 2 x 2 linear system. Both equations use the same
-// linearised q, so an isothermal chamber at fixed volume behind closed valves keeps
-// V_L p_L + V p exactly. The slopes are one-sided differences (the laws' square roots have unbounded
-// slopes where the pressures meet: RestrictionFlow is laminar there).
+// one exponential Euler substep of LinePressureStep (exponential Rosenbrock-Euler: y1 = y0 + s phi1(s J) F(y0),
+// F the pressures' rates and J their Jacobian at the substep's start; Hochbruck, Ostermann and Schweitzer,
+// SIAM J. Numer. Anal. 47, 2009): line and chamber pressures at its end, and the mass that entered the line
+// through the supply port. The chamber's compression by the piston is taken exactly, p_c = p0 (v0/v1)^(alpha n)
+// as in the polytropic step; then y = (p_L, p) follows
+//   dp_L/dt = (r T / V_L) (Q_valve(p_L) - q),      q = Q_r(p_L, p) the restriction's flow,
+//   dp/dt   = (n r T / v1) (q - G_atm (p - p_atm)),
+// which the step solves exactly where the flows are linear: a stiff line (a small volume behind a wide
+// restriction: time constants of microseconds) costs no more substeps than a soft one. J's two rows use the
+// same slopes of q, so V_L p_L + V p (the gas of an isothermal chamber at fixed volume behind closed valves)
+// is kept exactly: it is a left null vector of J and of F. The slopes are one-sided differences (the laws'
+// square roots have unbounded slopes where the pressures meet: RestrictionFlow is laminar there).
 struct LineSubstep {
   double line = 0, p = 0, supply = 0;
 };
@@ -646,11 +648,33 @@ double RestrictionFlow(const ChamberModel& k, double p_line, double p) {
   }
   return p_line >= p ? q : -q;
 }
-LineSubstep LineLinearizedEuler(const ChamberModel& k, const PortOpenings& o, double line0, double p0, double v0,
-                                double v1, double s) {
-  const double k_line = s * k.gas_rt / k.line_volume;
+// phi1(A) v = A^-1 (e^A - I) v for a real 2 x 2 matrix A, by Newton's divided-difference form of a
+// matrix function, f(A) = f(l1) I + f[l1, l2] (A - l1 I) with l1, l2 the eigenvalues of A (real or a
+// complex pair), f[l1, l2] = (f(l1) - f(l2)) / (l1 - l2), or f'(l) when they (nearly) coincide (Higham,
+// Functions of Matrices, 2008, Section 1.2 and Problem 1.9)
+void Phi1Times(const double A[2][2], const double v[2], double out[2]) {
+  using Complex = std::complex<double>;
+  auto phi1 = [](Complex x) { return std::abs(x) < 1e-8 ? 1.0 + x / 2.0 : (std::exp(x) - 1.0) / x; };
+  auto phi1_slope = [](Complex x) {  // d phi1 / dx = (e^x (x - 1) + 1) / x^2
+    return std::abs(x) < 1e-4 ? 0.5 + x / 3.0 : (std::exp(x) * (x - 1.0) + 1.0) / (x * x);
+  };
+  const double trace = A[0][0] + A[1][1], det = A[0][0] * A[1][1] - A[0][1] * A[1][0];
+  const Complex root = std::sqrt(Complex(trace * trace / 4 - det, 0.0));
+  const Complex l1 = trace / 2 + root, l2 = trace / 2 - root;
+  const Complex divided = std::abs(l1 - l2) < 1e-6 * (1 + std::abs(l1)) ? phi1_slope((l1 + l2) / 2.0)
+                                                                       : (phi1(l1) - phi1(l2)) / (l1 - l2);
+  const Complex f1 = phi1(l1);
+  // (A - l1 I) v
+  const Complex w0 = (A[0][0] - l1) * v[0] + A[0][1] * v[1], w1 = A[1][0] * v[0] + (A[1][1] - l1) * v[1];
+  out[0] = (f1 * v[0] + divided * w0).real();
+  out[1] = (f1 * v[1] + divided * w1).real();
+}
+
+LineSubstep LineExponentialEuler(const ChamberModel& k, const PortOpenings& o, double line0, double p0, double v0,
+                                 double v1, double s) {
+  const double k_line = k.gas_rt / k.line_volume;
   const double p_compressed = p0 * std::pow(v0 / v1, k.work_factor * k.polytropic_index);
-  const double c = s * k.polytropic_index * k.gas_rt / v1;
+  const double c = k.polytropic_index * k.gas_rt / v1;
   const double delta = 1e-7 * k.p_supply;
   const double valve = ChamberMassFlow(k, o, line0);
   const double valve_slope = (ChamberMassFlow(k, o, line0 + delta) - valve) / delta;  // <= 0
@@ -658,15 +682,13 @@ LineSubstep LineLinearizedEuler(const ChamberModel& k, const PortOpenings& o, do
   const double a = (RestrictionFlow(k, line0 + delta, p_compressed) - q) / delta;  // >= 0
   const double b = (RestrictionFlow(k, line0, p_compressed + delta) - q) / delta;  // <= 0
   const double g = k.atmosphere_leak;
-  // [1 - k_L (Q_v' - a)   k_L b        ] [dL]   [k_L (Q_v - q)               ]
-  // [-c a                 1 - c b + c g] [dp] = [c (q - g (p_c - p_atm))      ]
-  const double m11 = 1 - k_line * (valve_slope - a), m12 = k_line * b;
-  const double m21 = -c * a, m22 = 1 - c * b + c * g;
-  const double r1 = k_line * (valve - q), r2 = c * (q - g * (p_compressed - k.p_atm));
-  const double det = m11 * m22 - m12 * m21;
+  const double rate[2] = {k_line * (valve - q), c * (q - g * (p_compressed - k.p_atm))};
+  const double sJ[2][2] = {{s * k_line * (valve_slope - a), -s * k_line * b}, {s * c * a, s * c * (b - g)}};
+  double change[2];
+  Phi1Times(sJ, rate, change);
   LineSubstep out;
-  out.line = line0 + (r1 * m22 - m12 * r2) / det;
-  out.p = p_compressed + (m11 * r2 - m21 * r1) / det;
+  out.line = line0 + s * change[0];
+  out.p = p_compressed + s * change[1];
   out.supply = o.supply > 0 ? s * MassFlow(k.flow, o.supply, k.p_supply, out.line) : 0.0;
   return out;
 }
@@ -687,9 +709,9 @@ void LinePressureStep(const ChamberModel& k, const PortSchedule& ports, const Vo
       s = next - tau;
       PortOpenings at_mid = ports.At(mid - 1e-12 * h), at_next = ports.At(next - 1e-12 * h);
       double v_start = volume.At(tau), v_mid = volume.At(mid), v_next = volume.At(next);
-      LineSubstep full = LineLinearizedEuler(k, at_next, line, p, v_start, v_next, s);
-      LineSubstep half = LineLinearizedEuler(k, at_mid, line, p, v_start, v_mid, s / 2);
-      LineSubstep half2 = LineLinearizedEuler(k, at_next, half.line, half.p, v_mid, v_next, s / 2);
+      LineSubstep full = LineExponentialEuler(k, at_next, line, p, v_start, v_next, s);
+      LineSubstep half = LineExponentialEuler(k, at_mid, line, p, v_start, v_mid, s / 2);
+      LineSubstep half2 = LineExponentialEuler(k, at_next, half.line, half.p, v_mid, v_next, s / 2);
       double error = std::max(std::fabs(half2.line - full.line), std::fabs(half2.p - full.p));
       if (error > k.tolerance && substep > min_substep) {
         substep = std::max(s * std::max(0.2, 0.9 * std::sqrt(k.tolerance / error)), min_substep);
