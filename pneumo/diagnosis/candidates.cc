@@ -267,8 +267,11 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
                    const std::string& n = cyl.info.name;
                    const double v0 = Parameter(m, n, "P.dead_volume", 1e-6);
                    c->edits.push_back({n, {"LP", "LN"}, {}, {}, {{"line_volume", std::to_string(v0)}, {"line_conductance", "1e-8"}}});
-                   c->parameters.push_back(KeyParameter(n, "line_volume", v0, 1e-3 * v0, 100 * v0, v0, true));
-                   c->parameters.push_back(KeyParameter(n, "line_conductance", 1e-8, 1e-11, 1e-5, 1e-8, true));
+                   // bounds: a line of 0.1 to 100 dead volumes; a restriction from 1e-10 kg/(s Pa) (a
+                   // hair-thin tube) to 1e-7 (an orifice of about 9 mm): wider restrictions make the line
+                   // stiff beyond what a diagnosis can afford to simulate, and act as no restriction at all
+                   c->parameters.push_back(KeyParameter(n, "line_volume", v0, 0.1 * v0, 100 * v0, v0, true));
+                   c->parameters.push_back(KeyParameter(n, "line_conductance", 1e-8, 1e-10, 1e-7, 1e-8, true));
                  });
   }
   // payload: a moving mass different from the model's, on the body the cylinder's joint moves
