@@ -123,7 +123,7 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
   std::vector<Truth> t;
   t.push_back({"none", {}, {}});
   if (valve == "onoff") {
-    t.push_back({"valve delays 4 ms open, 2 ms close", {"valve_delay"}, {{"cyl", {}, {}, {}, {{"delay_open", "0.004"}, {"delay_close", "0.002"}}}}});
+    t.push_back({"valve delays 4 ms open, 2 ms close", {"valve_delay"}, {{"cyl", {}, {}, {"u1", "u2", "u3", "u4"}, {{"delay_open", "0.004"}, {"delay_close", "0.002"}}}}});
   } else if (valve == "proportional_5_3" && HasKey("spool_dead_time")) {
     t.push_back({"spool dead time 8 ms (Pade)", {"valve_delay"}, {{"cyl", {"d1", "d2"}, {}, {}, {{"spool_dead_time", "0.008"}}}}});
   } else if (valve == "proportional_5_3") {

@@ -174,8 +174,13 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
     const std::string valve = Choice(m, n, "valve");
     if (valve == "onoff") {
       c->form = "on/off valve opening and closing delays (armature model)";
-      c->parameters.push_back(KeyParameter(n, "delay_open", Parameter(m, n, "delay_open", 0), 0, 0.02, 1e-3));
-      c->parameters.push_back(KeyParameter(n, "delay_close", Parameter(m, n, "delay_close", 0), 0, 0.02, 1e-3));
+      // the armature is a state of each valve's command actuator: a model without delays gets it
+      const double open = Parameter(m, n, "delay_open", 0), close = Parameter(m, n, "delay_close", 0);
+      if (open == 0 && close == 0) {
+        c->edits.push_back({n, {}, {}, {"u1", "u2", "u3", "u4"}, {{"delay_open", "0.001"}, {"delay_close", "0.001"}}});
+      }
+      c->parameters.push_back(KeyParameter(n, "delay_open", open > 0 ? open : 1e-3, 1e-5, 0.02, 1e-3, true));
+      c->parameters.push_back(KeyParameter(n, "delay_close", close > 0 ? close : 1e-3, 1e-5, 0.02, 1e-3, true));
     } else if (valve == "proportional_5_3") {
       c->form = "a slower spool: first-order spool lag";
       c->parameters.push_back(
