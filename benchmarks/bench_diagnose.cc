@@ -16,7 +16,8 @@
 //   line_dynamics  tube volume and restriction                       -> (same keys: no transport delay yet)
 //   sensor_bias    offset and gain of the logged p_P                 -> offset and gain of one signal
 // Prints one line per case, the confusion matrix (true effect vs verdict) and the median held-out
-// shrink of the cases with an effect. Usage: bench_diagnose [--quick] [--rig A|B|C] [--duration S]
+// shrink of the cases with an effect. Usage: bench_diagnose [--quick] [--rig A|B|C] [--case TEXT] [--duration S]
+// (--case: only the truths whose label contains TEXT)
 // bench_diagnose --speed: the wall time of diagnosing one 20 s log of rig C (a laminar leak, the
 // documented default split: 70 % train, 30 % held out) logged at 500 Hz and at 1 kHz, on 2 threads.
 #include <algorithm>
@@ -90,6 +91,10 @@ std::optional<pneumatic::log::Log> Simulate(const Rig& rig, const Truth& truth, 
     const double scale = (m->body_mass[body] + truth.added_mass) / m->body_mass[body];
     m->body_mass[body] += truth.added_mass;
     for (int i = 0; i < 3; ++i) m->body_inertia[3 * body + i] *= scale;
+    if (std::string e = dg::RefreshMassConstants(m.get()); !e.empty()) {
+      *error = e;
+      return std::nullopt;
+    }
   }
   pneumatic::log::Log ref = Reference(rig, seed, duration);
   pneumatic::ClosedLoopOptions o;
@@ -189,12 +194,13 @@ bool DescribeRig(Rig* rig, std::string* valve, std::string* error_out) {
 
 int main(int argc, char** argv) {
   bool quick = false, speed = false;
-  std::string only;
+  std::string only, only_case;
   double duration = 12;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
     else if (!std::strcmp(argv[i], "--speed")) speed = true;
     else if (!std::strcmp(argv[i], "--rig") && i + 1 < argc) only = argv[++i];
+    else if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only_case = argv[++i];
     else if (!std::strcmp(argv[i], "--duration") && i + 1 < argc) duration = std::atof(argv[++i]);
   }
   pneumatic::benchmarks::PrintMachine(PNEUMATIC_BUILD_TYPE);
@@ -239,6 +245,7 @@ int main(int argc, char** argv) {
     std::vector<Truth> truths = Truths(rig, valve);
     if (quick) truths.resize(std::min<size_t>(truths.size(), 2));
     for (const Truth& truth : truths) {
+      if (!only_case.empty() && truth.label.find(only_case) == std::string::npos) continue;
       const auto t0 = std::chrono::steady_clock::now();
       std::optional<pneumatic::log::Log> train = Simulate(rig, truth, 1, duration, &error);
       std::optional<pneumatic::log::Log> held = train ? Simulate(rig, truth, 2, duration, &error) : std::nullopt;

@@ -61,6 +61,14 @@ std::string Replace(const std::string& text, size_t at, size_t length, const std
 
 }  // namespace
 
+std::string RefreshMassConstants(mjModel* m) {
+  mjData* d = mj_makeData(m);
+  if (!d) return "mj_makeData failed";
+  mj_setConst(m, d);
+  mj_deleteData(d);
+  return "";
+}
+
 const std::vector<std::string>& EffectNames() {
   static const std::vector<std::string> names = {"valve_delay",  "valve_deadband", "friction", "leakage",
                                                  "heat_transfer", "supply_drop",   "line_dynamics", "payload",
@@ -292,7 +300,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
       // the inertia scales with the mass: the added mass is spread like the body's own
       model->body_mass[body] = mass + value;
       for (int i = 0; i < 3; ++i) model->body_inertia[3 * body + i] = inertia[i] * (mass + value) / mass;
-      return std::string();
+      return RefreshMassConstants(model);
     };
     c->parameters.push_back(p);
   });

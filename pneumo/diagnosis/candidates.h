@@ -66,6 +66,11 @@ struct Candidate {
 // proportional valve); sensor_bias once per measured signal.
 std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& meas);
 
+// Recomputes the constants MuJoCo derives from masses at compile time (mj_setConst): after a change
+// of body_mass or body_inertia, without which the mass matrix of a "simple" body (e.g. a piston on a
+// slide joint) keeps its cached value dof_M0 and the change has no effect. "" or why not.
+std::string RefreshMassConstants(mjModel* m);
+
 // Every effect name of effects.md, `none` last.
 const std::vector<std::string>& EffectNames();
 
