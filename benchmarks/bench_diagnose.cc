@@ -9,8 +9,8 @@
 //   friction       LuGre (dynamic stick-slip, static above Coulomb)  -> Coulomb (joint frictionloss)
 //   valve_delay    on/off armature delays that lose short pulses     -> (same keys: the armature model)
 //                  proportional valves' dead time (Pade)             -> a slower first-order spool
-//   leakage        laminar leaks                                     -> orifice leaks, if the plugin has them
-//   heat_transfer  gas energy equation, per-chamber wall conductance -> one conductance, or the polytropic index
+//   leakage        laminar leaks                                     -> orifice leaks
+//   heat_transfer  gas energy equation, per-chamber wall conductance -> one conductance for both chambers
 //   supply_drop    a shared reservoir behind a restrictive line      -> a lower constant supply pressure
 //   payload        a heavier moving body                              -> added mass
 //   line_dynamics  tube volume and restriction                       -> (same keys: no transport delay yet)

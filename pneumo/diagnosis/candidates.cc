@@ -9,13 +9,6 @@
 namespace pneumatic::diagnosis {
 namespace {
 
-bool HasKey(const std::string& key) {
-  for (const ParameterDoc& doc : Parameters()) {
-    if (doc.key == key) return true;
-  }
-  return false;
-}
-
 std::string KeyUnit(const std::string& key) {
   std::string base = key.size() > 2 && key[1] == '.' ? key.substr(2) : key;
   for (const ParameterDoc& doc : Parameters()) {
@@ -193,7 +186,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
       c->form = "a slower spool: first-order spool lag";
       c->parameters.push_back(
           KeyParameter(n, "spool_time_constant", Parameter(m, n, "spool_time_constant", 0), 0, 0.1, 2e-3));
-    } else if (valve == "proportional_per_chamber" && HasKey("spool_dead_time")) {
+    } else if (valve == "proportional_per_chamber") {
       // each chamber's valve voltage behind a first-order lag (its act: the lagged voltage)
       const double tau = Parameter(m, n, "spool_time_constant", 0);
       c->form = "a slower valve: first-order lag of each chamber's valve voltage";
@@ -208,7 +201,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
     if (valve == "proportional_5_3") {
       c->form = "spool deadband (fraction of the spool range)";
       c->parameters.push_back(KeyParameter(n, "deadband", Parameter(m, n, "deadband", 0), 0, 0.5, 0.05));
-    } else if (valve == "proportional_per_chamber" && HasKey("deadband_voltage")) {
+    } else if (valve == "proportional_per_chamber") {
       c->form = "a voltage band added to each port's sealed band";
       c->parameters.push_back(KeyParameter(n, "deadband_voltage", Parameter(m, n, "deadband_voltage", 0), 0, 3, 0.1));
     }
@@ -229,42 +222,30 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
     };
     c->parameters.push_back(p);
   });
-  // leakage: across the piston and from each chamber to the atmosphere
-  {
-    const bool orifice = HasKey("piston_leak_area");
-    per_cylinder("leakage", orifice ? "orifice leaks across the piston and to the atmosphere"
-                                    : "laminar leaks across the piston and to the atmosphere",
-                 [&](const CylinderSeries& cyl, Candidate* c) {
-                   const std::string& n = cyl.info.name;
-                   if (orifice) {
-                     // from 1e-9 m^2 (a leak far below any valve's, about 0.03 mm across) on a log scale
-                     for (const char* key : {"piston_leak_area", "P.atmosphere_leak_area", "N.atmosphere_leak_area"}) {
-                       c->parameters.push_back(KeyParameter(n, key, std::max(Parameter(m, n, key, 0), 1e-9), 1e-12, 1e-5, 1e-9, true));
-                     }
-                   } else {
-                     c->parameters.push_back(KeyParameter(n, "piston_leak_conductance", Parameter(m, n, "piston_leak_conductance", 0), 0, 1e-6, 1e-11));
-                     c->parameters.push_back(KeyParameter(n, "P.atmosphere_leak_conductance", Parameter(m, n, "P.atmosphere_leak_conductance", 0), 0, 1e-6, 1e-11));
-                     c->parameters.push_back(KeyParameter(n, "N.atmosphere_leak_conductance", Parameter(m, n, "N.atmosphere_leak_conductance", 0), 0, 1e-6, 1e-11));
-                   }
-                 });
-  }
-  // heat_transfer: the gas temperature as a state with one wall heat conductance for both
-  // chambers, or (before the energy form exists) the polytropic index
-  per_cylinder("heat_transfer", "", [&](const CylinderSeries& cyl, Candidate* c) {
+  // leakage: orifices across the piston and from each chamber to the atmosphere (the turbulent form;
+  // a real leak may be laminar, or anything between)
+  per_cylinder("leakage", "orifice leaks across the piston and to the atmosphere", [&](const CylinderSeries& cyl, Candidate* c) {
     const std::string& n = cyl.info.name;
-    if (HasKey("thermal_model") && Choice(m, n, "thermal_model") != "energy") {
-      c->form = "gas temperature as a state, one wall heat conductance for both chambers";
-      // start from a wall time constant m c_v / (h A) of 1 s for a chamber at mid-stroke at 3 bar
-      const double volume = Parameter(m, n, "P.dead_volume", 1e-6) + Parameter(m, n, "P.area", 1e-4) * cyl.stroke / 2;
-      const double conductance = 3e5 * volume / (Parameter(m, n, "temperature", 293) * 0.4) / 1.0;
+    // from 1e-9 m^2 (a leak far below any valve's, about 0.03 mm across) on a log scale
+    for (const char* key : {"piston_leak_area", "P.atmosphere_leak_area", "N.atmosphere_leak_area"}) {
+      c->parameters.push_back(KeyParameter(n, key, std::max(Parameter(m, n, key, 0), 1e-9), 1e-12, 1e-5, 1e-9, true));
+    }
+  });
+  // heat_transfer: the gas temperature as a state with one wall heat conductance for both chambers
+  per_cylinder("heat_transfer", "gas temperature as a state, one wall heat conductance for both chambers",
+               [&](const CylinderSeries& cyl, Candidate* c) {
+    const std::string& n = cyl.info.name;
+    // start from a wall time constant m c_v / (h A) of 1 s for a chamber at mid-stroke at 3 bar
+    const double volume = Parameter(m, n, "P.dead_volume", 1e-6) + Parameter(m, n, "P.area", 1e-4) * cyl.stroke / 2;
+    double conductance = 3e5 * volume / (Parameter(m, n, "temperature", 293) * 0.4) / 1.0;
+    if (Choice(m, n, "thermal_model") == "energy") {
+      conductance = Parameter(m, n, "P.wall_heat_conductance", conductance);  // refit the model's own
+    } else {
       char text[32];
       std::snprintf(text, sizeof(text), "%.6g", conductance);
       c->edits.push_back({n, {"TP", "TN"}, {}, {}, {{"thermal_model", "energy"}, {"wall_heat_conductance", text}}});
-      c->parameters.push_back(KeyParameter(n, "wall_heat_conductance", conductance, 1e-3 * conductance, 1e3 * conductance, conductance, true));
-    } else {
-      c->form = "polytropic index of both chambers";
-      c->parameters.push_back(KeyParameter(n, "polytropic_index", Parameter(m, n, "P.polytropic_index", 1.4), 1.0, 1.7, 0.1));
     }
+    c->parameters.push_back(KeyParameter(n, "wall_heat_conductance", conductance, 1e-3 * conductance, 1e3 * conductance, conductance, true));
   });
   // supply_drop: a supply pressure below the nominal one
   per_cylinder("supply_drop", "a lower supply pressure", [&](const CylinderSeries& cyl, Candidate* c) {
@@ -274,12 +255,14 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
                                          0.02 * (nominal - cyl.info.p_exhaust)));
   });
   // line_dynamics: tube volume and its restriction between valve and chamber
-  if (HasKey("line_volume")) {
+  {
     per_cylinder("line_dynamics", "tube volume between valve and chamber with its restriction (both chambers alike)",
                  [&](const CylinderSeries& cyl, Candidate* c) {
                    const std::string& n = cyl.info.name;
                    const double v0 = Parameter(m, n, "P.dead_volume", 1e-6);
-                   c->edits.push_back({n, {"LP", "LN"}, {}, {}, {{"line_volume", std::to_string(v0)}, {"line_conductance", "1e-8"}}});
+                   if (Parameter(m, n, "P.line_volume", 0) == 0) {
+                     c->edits.push_back({n, {"LP", "LN"}, {}, {}, {{"line_volume", std::to_string(v0)}, {"line_conductance", "1e-8"}}});
+                   }
                    // bounds: a line of 0.1 to 100 dead volumes; a restriction from 1e-10 kg/(s Pa) (a
                    // hair-thin tube) to 1e-7 (an orifice of about 9 mm): wider restrictions make the line
                    // stiff beyond what a diagnosis can afford to simulate, and act as no restriction at all
