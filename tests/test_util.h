@@ -77,6 +77,25 @@ class AttachedModel {
   std::string error_;
 };
 
+// an attached model loaded from MJCF text, with accessors by actuator name: the tests of the
+// effects' physics (effects_physics_test, valve_delay_test)
+class LoadedModel : public AttachedModel {
+ public:
+  explicit LoadedModel(const std::string& xml) { ok_ = Load(xml); }
+  bool ok() const { return ok_; }
+  int Id(const std::string& name) const { return actuator(name); }
+  // act of a state actuator (MuJoCo puts the activations of the last na actuators in act)
+  double& Act(const std::string& name) const { return d()->act[Id(name) - (m()->nu - m()->na)]; }
+  double& Ctrl(const std::string& name) const { return d()->ctrl[Id(name)]; }
+  double P(Chamber k) const { return ChamberPressure(m(), d(), cylinder(), k); }
+  void StepUntil(double t) const {
+    while (d()->time < t - 1e-9) mj_step(m(), d());
+  }
+
+ private:
+  bool ok_ = false;
+};
+
 // the integrated state of a run, in one vector: time, qpos, qvel, act
 inline std::vector<double> State(const mjModel* m, const mjData* d) {
   std::vector<double> s{d->time};

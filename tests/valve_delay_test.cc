@@ -20,38 +20,7 @@ using testing::LoadModelFromString;
 using testing::SameBits;
 using testing::State;
 
-class Model {
- public:
-  explicit Model(const std::string& xml) {
-    m_ = LoadModelFromString(xml, &error_);
-    if (m_ && !Attach(m_, &error_)) {
-      mj_deleteModel(m_);
-      m_ = nullptr;
-    }
-    if (m_) d_ = mj_makeData(m_);
-  }
-  ~Model() {
-    if (d_) mj_deleteData(d_);
-    if (m_) mj_deleteModel(m_);
-  }
-  bool ok() const { return m_ != nullptr; }
-  const std::string& error() const { return error_; }
-  mjModel* m() const { return m_; }
-  mjData* d() const { return d_; }
-  int Id(const std::string& name) const { return mj_name2id(m_, mjOBJ_ACTUATOR, name.c_str()); }
-  double& Act(const std::string& name) const { return d_->act[Id(name) - (m_->nu - m_->na)]; }
-  double& Ctrl(const std::string& name) const { return d_->ctrl[Id(name)]; }
-  CylinderInfo cylinder() const { return Cylinders(m_).at(0); }
-  double P(Chamber k) const { return ChamberPressure(m_, d_, cylinder(), k); }
-  void StepUntil(double t) const {
-    while (d_->time < t - 1e-9) mj_step(m_, d_);
-  }
-
- private:
-  mjModel* m_ = nullptr;
-  mjData* d_ = nullptr;
-  std::string error_;
-};
+using Model = testing::LoadedModel;
 
 std::string AttachError(const std::string& xml) {
   std::string error;
