@@ -17,7 +17,7 @@
 //   sensor_bias    offset and gain of the logged p_P                 -> offset and gain of one signal
 // Prints one line per case, the confusion matrix (true effect vs verdict) and the median held-out
 // shrink of the cases with an effect. Usage: bench_diagnose [--quick] [--rig A|B|C] [--case TEXT] [--duration S]
-// (--case: only the truths whose label contains TEXT)
+// [--verbose] (--case: only the truths whose label contains TEXT; --verbose: the diagnosis' progress on stderr)
 // bench_diagnose --speed: the wall time of diagnosing one 20 s log of rig C (a laminar leak, the
 // documented default split: 70 % train, 30 % held out) logged at 500 Hz and at 1 kHz, on 2 threads.
 #include <algorithm>
@@ -193,12 +193,13 @@ bool DescribeRig(Rig* rig, std::string* valve, std::string* error_out) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  bool quick = false, speed = false;
+  bool quick = false, speed = false, verbose = false;
   std::string only, only_case;
   double duration = 12;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
     else if (!std::strcmp(argv[i], "--speed")) speed = true;
+    else if (!std::strcmp(argv[i], "--verbose")) verbose = true;
     else if (!std::strcmp(argv[i], "--rig") && i + 1 < argc) only = argv[++i];
     else if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only_case = argv[++i];
     else if (!std::strcmp(argv[i], "--duration") && i + 1 < argc) duration = std::atof(argv[++i]);
@@ -222,7 +223,9 @@ int main(int argc, char** argv) {
         return 1;
       }
       const auto t0 = std::chrono::steady_clock::now();
-      dg::Diagnosis d = dg::Diagnose(rig.file, *log, nullptr, dg::DiagnoseOptions{});
+      dg::DiagnoseOptions o;
+      if (verbose) o.progress = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+      dg::Diagnosis d = dg::Diagnose(rig.file, *log, nullptr, o);
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       std::string found;
       for (const std::string& e : d.effects) found += (found.empty() ? "" : "+") + e;
@@ -254,6 +257,7 @@ int main(int argc, char** argv) {
         continue;
       }
       dg::DiagnoseOptions o;
+      if (verbose) o.progress = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
       dg::Diagnosis d = dg::Diagnose(rig.file, *train, &*held, o);
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (!d.error.empty()) {

@@ -184,6 +184,7 @@ nlohmann::json DiagnosisJson(const dg::Diagnosis& d) {
                             {"heldout_gap_before", r.heldout_gap_before},
                             {"effective_samples", r.effective_samples},
                             {"accepted", r.accepted}};
+    if (!r.refit_status.empty()) round["refit"] = {{"status", r.refit_status}, {"heldout_gap", Number(r.refit_heldout_gap)}};
     round["ranking"] = nlohmann::json::array();
     for (const dg::CandidateResult& c : r.ranking) {
       round["ranking"].push_back({{"effect", c.effect},

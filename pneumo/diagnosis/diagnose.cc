@@ -224,6 +224,8 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
   say(Fixed("held-out gap of the model as given: %.4f", out.heldout_gap_before));
 
   Evaluated base_held = out.before.full;
+  Candidate found_jointly;  // every effect found so far as one candidate, initial values = fitted ones
+  found_jointly.effect = "found effects";
   for (int round = 0; round < options.max_effects; ++round) {
     Round r;
     r.model_effects = found;
@@ -280,7 +282,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
           (std::isnan(result.heldout_gap) ? std::string()
                                           : Fixed(", held-out gap %.4f", result.heldout_gap) + Fixed(" (%+.1f %%)", -100 * result.improvement) +
                                                 Fixed(", dIC %.1f", result.delta_ic)) +
-          Fixed(", %.1f s", result.seconds));
+          ", " + std::to_string(result.evaluations) + " evaluations" + Fixed(", %.1f s", result.seconds));
       r.ranking.push_back(result);
       tried.push_back(c);
     }
@@ -300,12 +302,39 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     for (size_t i = 0; i < r.ranking.size(); ++i) {
       if (!r.ranking[i].explains) continue;
       const CandidateResult& best = r.ranking[i];
-      std::vector<double> values;
-      for (const ParameterResult& p : best.parameters) values.push_back(p.value);
-      scenario = WithCandidate(scenario, ranked_candidates[i], values);
       found.push_back(best.effect);
       out.parameters.insert(out.parameters.end(), best.parameters.begin(), best.parameters.end());
       r.accepted = best.effect;
+      const Candidate& winner = ranked_candidates[i];
+      found_jointly.edits.insert(found_jointly.edits.end(), winner.edits.begin(), winner.edits.end());
+      for (size_t j = 0; j < winner.parameters.size(); ++j) {
+        found_jointly.parameters.push_back(winner.parameters[j]);
+        found_jointly.parameters.back().initial = best.parameters[j].value;
+      }
+      if (options.refit_iterations > 0) {
+        say("round " + std::to_string(round + 1) + ": refitting the parameters of " + std::to_string(found.size()) +
+            " effect(s) together");
+        FitOptions fo;
+        fo.gap = train_gap;
+        fo.max_iterations = options.refit_iterations;
+        fo.scan_points = 0;  // from the screened values
+        fo.progress = options.progress;
+        CandidateFit refit = FitCandidate(model_path, Scenario{}, found_jointly, *train, fo);
+        if (refit.error.empty()) {
+          r.refit_status = "fitted";
+          out.parameters.clear();
+          for (size_t j = 0; j < found_jointly.parameters.size(); ++j) {
+            EffectParameter& p = found_jointly.parameters[j];
+            p.initial = refit.values[j];
+            out.parameters.push_back({p.name, p.unit, refit.values[j], refit.standard_errors[j], refit.poorly_determined[j]});
+          }
+        } else {
+          r.refit_status = "failed: " + refit.error;
+        }
+      }
+      std::vector<double> values;
+      for (const EffectParameter& p : found_jointly.parameters) values.push_back(p.initial);
+      scenario = WithCandidate(Scenario{}, found_jointly, values);
       SensorModel s;
       ModelPtr with = BuildScenario(model_path, scenario, *held, &s, &error);
       if (!with) {
@@ -313,6 +342,10 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
         return out;
       }
       base_held = Evaluate(with.get(), s, *held, held_gap);
+      if (!r.refit_status.empty()) {
+        r.refit_heldout_gap = base_held.gap;
+        say("  refit: " + r.refit_status + Fixed(", held-out gap %.4f", base_held.gap));
+      }
       break;
     }
     say("round " + std::to_string(round + 1) + " verdict: " + r.accepted);

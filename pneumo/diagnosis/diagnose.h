@@ -42,6 +42,11 @@ struct DiagnoseOptions {
   double max_delta_ic = -10;      // dIC a candidate must beat
   double min_improvement = 0.10;  // ... and the held-out gap shrink it must reach (fraction)
   int max_iterations = 10;        // Levenberg-Marquardt iterations per candidate
+  // once an effect is accepted, the parameters of every effect found so far are fitted again
+  // together, from their values so far, with up to this many iterations (0: no refit): a candidate
+  // screened in a few iterations may not have converged, and what it leaves unexplained would
+  // otherwise be taken up by a spurious effect in the next round
+  int refit_iterations = 30;
   // fit on every fit_window_stride-th window of the training log (1: all; 2: every other window,
   // half the cost, windows still spread over the whole log); the held-out score uses every window
   int fit_window_stride = 2;
@@ -75,6 +80,10 @@ struct Round {
   double effective_samples = 0;            // N_eff of the round's held-out residuals
   std::vector<CandidateResult> ranking;    // by dIC, failed candidates last
   std::string accepted;                    // the effect added, or "none"
+  // the joint refit of every effect found so far, after `accepted` (its parameters become the
+  // verdict's): status "fitted" or "failed: why" (the screening values are then kept), held-out gap
+  std::string refit_status;
+  double refit_heldout_gap = kNotComputed;
 };
 
 // Per held-out row, which regimes it belongs to (a row may be in several).

@@ -99,6 +99,32 @@ class EffectCost : public ceres::CostFunction {
   mutable std::string last_error_;
 };
 
+// The coarse scan of FitOptions::scan_points: the logarithmic parameters together at `points`
+// positions t = (j + 1/2) / points along their log ranges (value = lower (upper / lower)^t, so
+// that parameters of one kind, such as a candidate's three leak areas, move alike), the others held.
+// Returns the start for the fit: the best point, or the initial values where no point improves the
+// sum of squares; a point the model refuses counts as no better.
+std::vector<double> ScanLogarithmic(const EffectCost& cost, const Candidate& c, const std::vector<double>& initial,
+                                    double initial_ss, int points) {
+  bool any = false;
+  for (const EffectParameter& p : c.parameters) any |= p.logarithmic;
+  if (!any) return initial;
+  std::vector<double> best = initial;
+  double best_ss = initial_ss;
+  for (int j = 0; j < points; ++j) {
+    const double t = (j + 0.5) / points;
+    std::vector<double> trial = initial;
+    for (size_t i = 0; i < c.parameters.size(); ++i) {
+      const EffectParameter& p = c.parameters[i];
+      if (p.logarithmic) trial[i] = p.lower * std::pow(p.upper / p.lower, t);
+    }
+    Eigen::VectorXd r;
+    if (!cost.Residuals(trial, &r).empty()) continue;
+    if (const double ss = r.squaredNorm(); ss < best_ss) best_ss = ss, best = trial;
+  }
+  return best;
+}
+
 class ProgressLine : public ceres::IterationCallback {
  public:
   ProgressLine(const Candidate& c, const FitOptions& o, const double* z) : c_(c), o_(o), z_(z) {}
@@ -232,8 +258,9 @@ CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, c
       return fit;
     }
     auto* cost = new EffectCost(m.get(), sensors, c, meas, options, static_cast<int>(ev.residuals.size()));
+    std::vector<double> start = ScanLogarithmic(*cost, c, initial, ev.residuals.squaredNorm(), options.scan_points);
     std::vector<double> z(k);
-    for (size_t i = 0; i < k; ++i) z[i] = ToVariable(c.parameters[i], initial[i]);
+    for (size_t i = 0; i < k; ++i) z[i] = ToVariable(c.parameters[i], start[i]);
     ceres::Problem problem;
     problem.AddResidualBlock(cost, nullptr, z.data());
     for (size_t i = 0; i < k; ++i) {
@@ -247,6 +274,12 @@ CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, c
     solver.max_num_iterations = options.max_iterations;
     solver.function_tolerance = 1e-4;
     solver.parameter_tolerance = 1e-4;
+    // with bounds, Ceres follows each trust-region step with a projected line search whose default
+    // (cubic interpolation, up to 20 steps) evaluates the Jacobian at every trial point: here, a
+    // simulation per parameter per trial. One bisection step (values only) keeps the projection
+    // and costs no Jacobian
+    solver.line_search_interpolation_type = ceres::BISECTION;
+    solver.max_num_line_search_step_size_iterations = 1;
     solver.num_threads = 1;
     solver.logging_type = ceres::SILENT;
     solver.update_state_every_iteration = true;

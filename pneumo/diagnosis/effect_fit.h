@@ -71,8 +71,15 @@ struct FitOptions {
   GapOptions gap;
   int max_iterations = 12;
   // forward-difference step of the optimiser's variable: a fraction of the parameter's scale, or of
-  // its value for a logarithmic parameter
-  double relative_step = 1e-2;
+  // its value for a logarithmic parameter. Not smaller: a prediction error over a window is not
+  // smooth at fine scales (valve regimes, stroke ends), and a small step overstates the slope, so
+  // that Levenberg-Marquardt crawls
+  double relative_step = 5e-2;
+  // before Levenberg-Marquardt, the logarithmic parameters (magnitudes known only to a decade or
+  // two, so their initial values may be decades off) are scanned together at this many points
+  // spread evenly over their ranges on their log scales, and the fit starts from the best point
+  // (0: no scan)
+  int scan_points = 6;
   std::function<void(const std::string&)> progress;
 };
 
