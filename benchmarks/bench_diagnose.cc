@@ -13,7 +13,7 @@
 //   heat_transfer  gas energy equation, per-chamber wall conductance -> one conductance for both chambers
 //   supply_drop    a shared reservoir behind a restrictive line      -> a lower constant supply pressure
 //   payload        a heavier moving body                              -> added mass
-//   line_dynamics  tube volume and restriction                       -> (same keys: no transport delay yet)
+//   line_dynamics  tube volume and restriction                       -> (same keys; the truth has no line_delay)
 //   sensor_bias    offset and gain of the logged p_P                 -> offset and gain of one signal
 // Prints one line per case, the confusion matrix (true effect vs verdict) and the median held-out
 // shrink of the cases with an effect. Usage: bench_diagnose [--quick] [--rig A|B|C] [--case TEXT] [--duration S]

@@ -252,10 +252,12 @@ TEST(DeadTime, TheCommandReachesTheChamberPressureLaterByAboutT) {
   for (int i = 0; i < 100; ++i) (PadeStep((lo + hi) / 2) < 0.5 ? lo : hi) = (lo + hi) / 2;
   const double theta_half = (lo + hi) / 2;
   ASSERT_NEAR(theta_half, 0.896, 0.001);
+  // line_delay (line_dynamics' transport delay) is a dead time of the command too: the same shift
+  for (const std::string key : {"spool_dead_time", "line_delay"})
   for (double dead : {0.01, 0.02}) {
-    SCOPED_TRACE(dead);
+    SCOPED_TRACE(key + " " + std::to_string(dead));
     Model delayed(FastValve(
-        RigC("spool_dead_time=" + std::to_string(dead), false, StateActuators({"dP1", "dP2", "dN1", "dN2"}))));
+        RigC(key + "=" + std::to_string(dead), false, StateActuators({"dP1", "dP2", "dN1", "dN2"}))));
     Model plain(FastValve(RigC("", false, "")));
     ASSERT_TRUE(delayed.ok()) << delayed.error();
     delayed.Act("cyl.dP1") = u0, delayed.Act("cyl.dN1") = u0;
@@ -277,6 +279,35 @@ TEST(DeadTime, TheCommandReachesTheChamberPressureLaterByAboutT) {
   }
 }
 
+// line_delay is the project's own form of a line's transport delay: a dead time of the command added to
+// spool_dead_time, through the same delay line. So a line delay T_l with a spool dead time T_s steps as a
+// spool dead time T_s + T_l alone, bit for bit (2^-7 s + 2^-8 s: the values and their sum are exact).
+TEST(LineDelay, StepsAsASpoolDeadTimeOfTheSumBitForBit) {
+  struct Case {
+    std::string name, split, summed;
+  };
+  const std::string line_states = "spool_dead_time=0.0078125 line_delay=0.00390625", summed = "spool_dead_time=0.01171875";
+  const Case cases[] = {
+      {"per chamber", RigC(line_states, false, StateActuators({"dP1", "dP2", "dN1", "dN2"})),
+       RigC(summed, false, StateActuators({"dP1", "dP2", "dN1", "dN2"}))},
+      {"5/3", RigB(line_states, StateActuators({"d1", "d2"})), RigB(summed, StateActuators({"d1", "d2"}))},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    Model split(c.split), sum(c.summed);
+    ASSERT_TRUE(split.ok()) << split.error();
+    ASSERT_TRUE(sum.ok()) << sum.error();
+    for (int i = 0; i < 800; ++i) {
+      testing::PatternCommand(split.cylinder(), split.d(), i);
+      testing::PatternCommand(sum.cylinder(), sum.d(), i);
+      mj_step(split.m(), split.d());
+      mj_step(sum.m(), sum.d());
+    }
+    EXPECT_TRUE(SameBits(State(split.m(), split.d()), State(sum.m(), sum.d())));
+    EXPECT_NE(split.P(Chamber::kP), split.P(Chamber::kN)) << "the pattern moved the chambers";
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // configuration: keys, actuators, defaults off
 
@@ -294,6 +325,15 @@ TEST(ValveDelay, KeysAreDocumentedWithUnitsDefaultsAndRanges) {
   EXPECT_EQ(dead->max, 0.1);
   EXPECT_THAT(dead->scope, HasSubstr("valve=proportional_5_3 or valve=proportional_per_chamber"));
   EXPECT_THAT(dead->meaning, HasSubstr("Pade"));
+  const ParameterDoc* line = nullptr;
+  for (const ParameterDoc& p : Parameters()) {
+    if (p.key == "line_delay") line = &p;
+  }
+  ASSERT_NE(line, nullptr);
+  EXPECT_EQ(line->unit, "s");
+  EXPECT_EQ(line->default_value, "0");
+  EXPECT_EQ(line->max, 0.1);
+  EXPECT_THAT(line->meaning, HasSubstr("added to spool_dead_time"));
   ASSERT_NE(lag, nullptr);
   EXPECT_EQ(lag->unit, "s");
   EXPECT_THAT(lag->scope, HasSubstr("valve=proportional_per_chamber"));
@@ -312,13 +352,16 @@ TEST(ValveDelay, AttachRefusesActuatorsThatDoNotMatchNamingThem) {
   // a dead time without its delay-line states
   std::string error = AttachError(RigB("spool_dead_time=0.005", ""));
   EXPECT_THAT(error, HasSubstr("actuator 'cyl.d1'"));
-  EXPECT_THAT(error, HasSubstr("spool_dead_time > 0"));
+  EXPECT_THAT(error, HasSubstr("spool_dead_time + line_delay > 0"));
+  error = AttachError(RigB("line_delay=0.005", ""));
+  EXPECT_THAT(error, HasSubstr("actuator 'cyl.d1'"));
+  EXPECT_THAT(error, HasSubstr("spool_dead_time + line_delay > 0"));
   error = AttachError(RigC("spool_dead_time=0.005", false, StateActuators({"dP1", "dP2", "dN1"})));
   EXPECT_THAT(error, HasSubstr("actuator 'cyl.dN2'"));
   // delay-line states without a dead time
   error = AttachError(RigC("", false, StateActuators({"dP1", "dP2", "dN1", "dN2"})));
   EXPECT_THAT(error, HasSubstr("actuator 'cyl.dP1': has no role"));
-  EXPECT_THAT(error, HasSubstr("spool_dead_time > 0"));
+  EXPECT_THAT(error, HasSubstr("spool_dead_time + line_delay > 0"));
   // the 5/3 valve's states on a per-chamber cylinder
   error = AttachError(RigC("spool_dead_time=0.005", false, StateActuators({"dP1", "dP2", "dN1", "dN2", "d1"})));
   EXPECT_THAT(error, HasSubstr("actuator 'cyl.d1': has no role"));
@@ -341,6 +384,8 @@ TEST(ValveDelay, AttachRefusesActuatorsThatDoNotMatchNamingThem) {
   std::string onoff = testing::ReadText(testing::ShippedModel("rig_onoff.xml"));
   EXPECT_THAT(AttachError(testing::ReplaceAll(onoff, "valve=onoff", "valve=onoff spool_dead_time=0.001")),
               HasSubstr("key 'spool_dead_time': applies only to valve=proportional_5_3 or valve=proportional_per_chamber"));
+  EXPECT_THAT(AttachError(testing::ReplaceAll(onoff, "valve=onoff", "valve=onoff line_delay=0.001")),
+              HasSubstr("key 'line_delay': applies only to valve=proportional_5_3 or valve=proportional_per_chamber"));
   EXPECT_THAT(AttachError(testing::ReplaceAll(onoff, "valve=onoff", "valve=onoff spool_time_constant=0.001")),
               HasSubstr("key 'spool_time_constant': applies only to valve=proportional_5_3 or valve=proportional_per_chamber"));
 }

@@ -90,6 +90,8 @@ const Param kParams[] = {
      "spool first-order lag tau_v (paper 001 eq. 1); 0 = no lag. Default 0.0042 for proportional_5_3 (act of <name>.u: the spool position), 0 for proportional_per_chamber (when > 0 the act of <name>.uP / <name>.uN is each valve's lagged voltage)", CYL(spool_time_constant)},
     {"spool_dead_time", Scope::kCylinder, AppliesTo::kProportional, "s", "0", nullptr, 0, 0.1, false, false,
      "valve dead time T: the command reaches the spool through the (1,2) Pade approximant of exp(-s T), (1 - s T/3)/(1 + 2 s T/3 + (s T)^2/6) (states <name>.d1, <name>.d2 for proportional_5_3; <name>.dP1, <name>.dP2, <name>.dN1, <name>.dN2 per chamber); 0 = none", CYL(spool_dead_time)},
+    {"line_delay", Scope::kCylinder, AppliesTo::kProportional, "s", "0", nullptr, 0, 0.1, false, false,
+     "transport delay L/c of the tubes between the valve and the chambers (about 3 ms per metre of tube): the chambers feel a change of the command this much later. The project's own form: a dead time of the command added to spool_dead_time, through the same (1,2) Pade delay line and states (the wave's return from the chamber to the valve is not delayed); 0 = none", CYL(line_delay)},
     {"u_max", Scope::kCylinder, AppliesTo::kProportional53, "V", "5", nullptr, 0, 100, true, false,
      "command saturation: the spool is driven by clip(u, -u_max, u_max)", CYL(u_max)},
     {"orifice_gradient", Scope::kCylinder, AppliesTo::kProportional53, "m^2/m", "0.0226", nullptr, 0, 1, true, false,
@@ -537,8 +539,8 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
   for (int k = 0; k < 2; ++k) {
     // the identified model of paper 000 maps the command voltage itself (its valve's dynamics are in its fit)
     if (c.chamber[k].model != PressureModel::kIdentified) continue;
-    if (c.spool_dead_time > 0) {
-      return fail("spool_dead_time", "needs the physical pressure model in both chambers (" + prefixed(k, "pressure_model") +
+    if (c.CommandDeadTime() > 0) {
+      return fail(c.spool_dead_time > 0 ? "spool_dead_time" : "line_delay", "needs the physical pressure model in both chambers (" + prefixed(k, "pressure_model") +
                                          " is identified: the identified model of paper 000 takes the command voltage)");
     }
     if (c.valve == ValveKind::kProportionalPerChamber && c.spool_time_constant > 0) {

@@ -108,6 +108,10 @@ struct CylinderConfig {
   double spool_time_constant = 0;  // tau_v, s (0: spool follows the command at once); also per chamber
   // kProportional53 and kProportionalPerChamber: dead time of the command, (1,2) Pade approximant (valves.h)
   double spool_dead_time = 0;      // T, s (0: none)
+  // line_dynamics' transport delay L/c of the tubes to the chambers, s (0: none): the project's own
+  // form, a dead time of the command like spool_dead_time and added to it (the same delay line)
+  double line_delay = 0;
+  double CommandDeadTime() const { return spool_dead_time + line_delay; }
   double u_max = 0;                // V, command saturation
   double orifice_gradient = 0;     // w, m^2/m
   double deadband = 0;             // fraction of the full spool range 2 k_v u_max with no flow

@@ -143,7 +143,7 @@ bool ValvesHaveState(const CylinderConfig& c) {
 }
 
 int DelayChannels(const CylinderConfig& c) {
-  if (c.valve == ValveKind::kOnOff || !(c.spool_dead_time > 0)) return 0;
+  if (c.valve == ValveKind::kOnOff || !(c.CommandDeadTime() > 0)) return 0;
   return c.valve == ValveKind::kProportional53 ? 1 : 2;
 }
 
@@ -188,12 +188,12 @@ ValveSignal ProportionalSignal(const CylinderConfig& c, int channel, const Valve
   // 5/3: the valve's input saturates at +-u_max before the delay and the spool (paper 001 eq. 1)
   bool five_three = c.valve == ValveKind::kProportional53;
   double u = five_three ? std::clamp(in.command[0], -c.u_max, c.u_max) : in.command[channel];
-  return ValveSignal(u, c.spool_dead_time, in.delay[channel], c.spool_time_constant, in.state[channel],
+  return ValveSignal(u, c.CommandDeadTime(), in.delay[channel], c.spool_time_constant, in.state[channel],
                      five_three ? c.spool_gain : 1.0);
 }
 
 double ValveStateAtEnd(const CylinderConfig& c, int valve, const ValveInputs& in) {
-  if (c.valve != ValveKind::kOnOff && (c.spool_dead_time > 0 || c.valve == ValveKind::kProportionalPerChamber)) {
+  if (c.valve != ValveKind::kOnOff && (c.CommandDeadTime() > 0 || c.valve == ValveKind::kProportionalPerChamber)) {
     return ProportionalSignal(c, valve, in).At(in.step);
   }
   if (c.valve == ValveKind::kProportional53) {
@@ -213,7 +213,7 @@ PortSchedule::PortSchedule(const CylinderConfig& c, int chamber, const ValveInpu
   switch (c.valve) {
     case ValveKind::kProportional53:
       spool_ = true;
-      if (c.spool_dead_time > 0) {
+      if (c.CommandDeadTime() > 0) {
         signal_driven_ = true;
         signal_ = ProportionalSignal(c, 0, in);
         return;
@@ -222,7 +222,7 @@ PortSchedule::PortSchedule(const CylinderConfig& c, int chamber, const ValveInpu
       spool_start_ = c.spool_time_constant > 0 ? in.state[0] : spool_target_;
       return;
     case ValveKind::kProportionalPerChamber:
-      if (c.spool_dead_time > 0 || c.spool_time_constant > 0) {
+      if (c.CommandDeadTime() > 0 || c.spool_time_constant > 0) {
         signal_driven_ = true;
         signal_ = ProportionalSignal(c, chamber, in);
         return;
