@@ -121,10 +121,22 @@ std::string Html(const dg::Diagnosis& d, const DiagnoseCommandOptions& o) {
   h << "</table>\n";
   for (size_t r = 0; r < d.rounds.size(); ++r) {
     const dg::Round& round = d.rounds[r];
+    std::string in_model;
+    for (const std::string& e : round.model_effects) in_model += (in_model.empty() ? "" : " + ") + e;
     h << "<h2>Candidates, round " << r + 1 << "</h2><p>Model effects: "
-      << Escape(round.model_effects.empty() ? std::string("none (the model as given)") : round.model_effects[0])
+      << Escape(in_model.empty() ? std::string("none (the model as given)") : in_model)
       << "; held-out gap " << Format("%.4f", round.heldout_gap_before) << "; effective samples "
-      << Format("%.0f", round.effective_samples) << ". Accepted: <b>" << Escape(round.accepted) << "</b>.</p>\n";
+      << Format("%.0f", round.effective_samples) << ". Accepted: <b>" << Escape(round.accepted) << "</b>.";
+    if (!round.refit_status.empty()) {
+      h << " The found effects' parameters refitted together: " << Escape(round.refit_status) << ", held-out gap "
+        << Format("%.4f", round.refit_heldout_gap) << ".";
+    }
+    if (!round.dropped.empty()) {
+      h << " Then <b>" << Escape(round.dropped) << "</b> was dropped: given the other effects it no longer explains the gap "
+        << "(&Delta;IC " << Format("%.1f", round.dropped_delta_ic) << ", " << Format("%.1f", 100 * round.dropped_improvement)
+        << " % of the held-out gap).";
+    }
+    h << "</p>\n";
     h << "<img src=\"ranking_" << r + 1 << ".png\" alt=\"ranking\">\n<table><tr><th>effect</th><th>form</th><th>held-out gap</th>"
          "<th>shrink</th><th>&Delta;IC</th><th>explains</th><th>parameters</th><th>status</th></tr>\n";
     for (const dg::CandidateResult& c : round.ranking) {
@@ -185,6 +197,11 @@ nlohmann::json DiagnosisJson(const dg::Diagnosis& d) {
                             {"effective_samples", r.effective_samples},
                             {"accepted", r.accepted}};
     if (!r.refit_status.empty()) round["refit"] = {{"status", r.refit_status}, {"heldout_gap", Number(r.refit_heldout_gap)}};
+    if (!r.dropped.empty()) {
+      round["dropped"] = {{"effect", r.dropped},
+                          {"delta_ic", Number(r.dropped_delta_ic)},
+                          {"improvement_pct", Number(100 * r.dropped_improvement)}};
+    }
     round["ranking"] = nlohmann::json::array();
     for (const dg::CandidateResult& c : r.ranking) {
       round["ranking"].push_back({{"effect", c.effect},

@@ -111,6 +111,32 @@ double EffectiveSamples(const Evaluated& ev, const Measurements& meas, const Gap
   return static_cast<double>(ev.residuals.size()) / std::max(tau, 1.0);
 }
 
+// An effect found: its candidate (`initial` = the fitted values) and its fitted parameters.
+struct FoundEffect {
+  Candidate candidate;
+  std::vector<ParameterResult> parameters;
+};
+
+// the found effects but the skip-th (-1: all) as one candidate, edits and parameters in order
+Candidate JointCandidate(const std::vector<FoundEffect>& found, int skip) {
+  Candidate joint;
+  joint.effect = "found effects";
+  for (int i = 0; i < static_cast<int>(found.size()); ++i) {
+    if (i == skip) continue;
+    const Candidate& c = found[i].candidate;
+    joint.edits.insert(joint.edits.end(), c.edits.begin(), c.edits.end());
+    joint.parameters.insert(joint.parameters.end(), c.parameters.begin(), c.parameters.end());
+  }
+  return joint;
+}
+
+Scenario ScenarioOf(const std::vector<FoundEffect>& found, int skip) {
+  Candidate joint = JointCandidate(found, skip);
+  std::vector<double> values;
+  for (const EffectParameter& p : joint.parameters) values.push_back(p.initial);
+  return WithCandidate(Scenario{}, joint, values);
+}
+
 }  // namespace
 
 Regimes ClassifyRegimes(const mjModel* m, const Measurements& meas) {
@@ -212,7 +238,6 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
   out.signal_scale = train_gap.signal_scale;
   out.regimes = ClassifyRegimes(m, *held);
 
-  Scenario scenario;
   std::vector<std::string> found;
   SensorModel sensors = SensorModel::Identity(*held);
   out.before = Assess(m, sensors, *held, held_gap, out.regimes);
@@ -224,11 +249,46 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
   say(Fixed("held-out gap of the model as given: %.4f", out.heldout_gap_before));
 
   Evaluated base_held = out.before.full;
-  Candidate found_jointly;  // every effect found so far as one candidate, initial values = fitted ones
-  found_jointly.effect = "found effects";
-  for (int round = 0; round < options.max_effects; ++round) {
+  std::vector<FoundEffect> found_effects;
+  std::vector<std::string> dropped;  // found, then dropped by the backward step: not tried again
+  // the held-out prediction with the found effects but the skip-th (-1: all)
+  auto held_out_without = [&](int skip, std::string* why) {
+    Scenario sc = ScenarioOf(found_effects, skip);
+    SensorModel sm;
+    ModelPtr with = BuildScenario(model_path, sc, *held, &sm, why);
+    if (with) return Evaluate(with.get(), sm, *held, held_gap);
+    Evaluated failed;
+    failed.error = *why;
+    return failed;
+  };
+  // the joint refit: every found effect's parameters together, from their values so far
+  auto refit_found = [&](Round* r) {
+    if (options.refit_iterations <= 0) return;
+    say("round " + std::to_string(out.rounds.size() + 1) + ": refitting the parameters of " +
+        std::to_string(found_effects.size()) + " effect(s) together");
+    FitOptions fo;
+    fo.gap = train_gap;
+    fo.max_iterations = options.refit_iterations;
+    fo.scan_points = 0;  // from the values so far
+    fo.progress = options.progress;
+    CandidateFit refit = FitCandidate(model_path, Scenario{}, JointCandidate(found_effects, -1), *train, fo);
+    r->refit_status = refit.error.empty() ? "fitted" : "failed: " + refit.error;
+    if (!refit.error.empty()) return;
+    size_t j = 0;
+    for (FoundEffect& f : found_effects) {
+      for (size_t i = 0; i < f.candidate.parameters.size(); ++i, ++j) {
+        f.candidate.parameters[i].initial = refit.values[j];
+        f.parameters[i].value = refit.values[j];
+        f.parameters[i].standard_error = refit.standard_errors[j];
+        f.parameters[i].poorly_determined = refit.poorly_determined[j];
+      }
+    }
+  };
+  const int max_rounds = 2 * options.max_effects;  // a dropped effect frees a place; bounded all the same
+  for (int round = 0; round < max_rounds && static_cast<int>(found.size()) < options.max_effects; ++round) {
     Round r;
     r.model_effects = found;
+    const Scenario scenario = ScenarioOf(found_effects, -1);
     r.heldout_gap_before = base_held.gap;
     r.effective_samples = EffectiveSamples(base_held, *held, held_gap);
     const double rss0 = base_held.residuals.squaredNorm();
@@ -242,6 +302,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     std::vector<Candidate> tried;
     for (Candidate& c : candidates) {
       if (std::find(found.begin(), found.end(), c.effect) != found.end()) continue;
+      if (std::find(dropped.begin(), dropped.end(), c.effect) != dropped.end()) continue;
       if (!options.effects.empty() && std::find(options.effects.begin(), options.effects.end(), c.effect) == options.effects.end()) {
         continue;
       }
@@ -301,51 +362,55 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     r.accepted = "none";
     for (size_t i = 0; i < r.ranking.size(); ++i) {
       if (!r.ranking[i].explains) continue;
-      const CandidateResult& best = r.ranking[i];
-      found.push_back(best.effect);
-      out.parameters.insert(out.parameters.end(), best.parameters.begin(), best.parameters.end());
-      r.accepted = best.effect;
-      const Candidate& winner = ranked_candidates[i];
-      found_jointly.edits.insert(found_jointly.edits.end(), winner.edits.begin(), winner.edits.end());
-      for (size_t j = 0; j < winner.parameters.size(); ++j) {
-        found_jointly.parameters.push_back(winner.parameters[j]);
-        found_jointly.parameters.back().initial = best.parameters[j].value;
+      r.accepted = r.ranking[i].effect;
+      found_effects.push_back({ranked_candidates[i], r.ranking[i].parameters});
+      for (size_t j = 0; j < r.ranking[i].parameters.size(); ++j) {
+        found_effects.back().candidate.parameters[j].initial = r.ranking[i].parameters[j].value;
       }
-      if (options.refit_iterations > 0) {
-        say("round " + std::to_string(round + 1) + ": refitting the parameters of " + std::to_string(found.size()) +
-            " effect(s) together");
-        FitOptions fo;
-        fo.gap = train_gap;
-        fo.max_iterations = options.refit_iterations;
-        fo.scan_points = 0;  // from the screened values
-        fo.progress = options.progress;
-        CandidateFit refit = FitCandidate(model_path, Scenario{}, found_jointly, *train, fo);
-        if (refit.error.empty()) {
-          r.refit_status = "fitted";
-          out.parameters.clear();
-          for (size_t j = 0; j < found_jointly.parameters.size(); ++j) {
-            EffectParameter& p = found_jointly.parameters[j];
-            p.initial = refit.values[j];
-            out.parameters.push_back({p.name, p.unit, refit.values[j], refit.standard_errors[j], refit.poorly_determined[j]});
-          }
-        } else {
-          r.refit_status = "failed: " + refit.error;
-        }
-      }
-      std::vector<double> values;
-      for (const EffectParameter& p : found_jointly.parameters) values.push_back(p.initial);
-      scenario = WithCandidate(Scenario{}, found_jointly, values);
-      SensorModel s;
-      ModelPtr with = BuildScenario(model_path, scenario, *held, &s, &error);
-      if (!with) {
-        out.error = error;
+      refit_found(&r);
+      base_held = held_out_without(-1, &error);
+      if (!base_held.error.empty()) {
+        out.error = "the model with the found effects cannot predict the held-out log: " + base_held.error;
         return out;
       }
-      base_held = Evaluate(with.get(), s, *held, held_gap);
       if (!r.refit_status.empty()) {
         r.refit_heldout_gap = base_held.gap;
         say("  refit: " + r.refit_status + Fixed(", held-out gap %.4f", base_held.gap));
       }
+      // the backward step: does each earlier effect still explain the gap given the others (the same
+      // criteria, the effect's own parameters counted), with the values of the joint refit? The
+      // weakest that does not is dropped, as in stepwise regression: an effect accepted first may only
+      // have stood in for the one found after it
+      int weakest = -1;
+      double weakest_ic = -std::numeric_limits<double>::infinity(), weakest_improvement = 0;
+      for (int e = 0; e + 1 < static_cast<int>(found_effects.size()); ++e) {
+        Evaluated without = held_out_without(e, &error);
+        if (!without.error.empty()) continue;  // cannot do without it
+        const double k = static_cast<double>(found_effects[e].candidate.parameters.size());
+        const double ic = r.effective_samples * std::log(base_held.residuals.squaredNorm() / without.residuals.squaredNorm()) +
+                          k * std::log(r.effective_samples);
+        const double improvement = (without.gap - base_held.gap) / without.gap;
+        const bool explains = ic < options.max_delta_ic && improvement >= options.min_improvement;
+        say("  without " + found_effects[e].candidate.effect + Fixed(": held-out gap %.4f", without.gap) +
+            Fixed(", its dIC %.1f", ic) + (explains ? ", kept" : ", no longer explains the gap"));
+        if (!explains && ic > weakest_ic) weakest = e, weakest_ic = ic, weakest_improvement = improvement;
+      }
+      if (weakest >= 0) {
+        r.dropped = found_effects[weakest].candidate.effect;
+        r.dropped_delta_ic = weakest_ic, r.dropped_improvement = weakest_improvement;
+        dropped.push_back(r.dropped);
+        found_effects.erase(found_effects.begin() + weakest);
+        refit_found(&r);
+        base_held = held_out_without(-1, &error);
+        if (!base_held.error.empty()) {
+          out.error = "the model with the found effects cannot predict the held-out log: " + base_held.error;
+          return out;
+        }
+        r.refit_heldout_gap = base_held.gap;
+        say("  dropped " + r.dropped + Fixed(", held-out gap %.4f", base_held.gap));
+      }
+      found.clear();
+      for (const FoundEffect& f : found_effects) found.push_back(f.candidate.effect);
       break;
     }
     say("round " + std::to_string(round + 1) + " verdict: " + r.accepted);
@@ -354,8 +419,9 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     if (stop) break;
   }
   out.effects = found;
+  for (const FoundEffect& f : found_effects) out.parameters.insert(out.parameters.end(), f.parameters.begin(), f.parameters.end());
   SensorModel final_sensors;
-  ModelPtr final_model = BuildScenario(model_path, scenario, *held, &final_sensors, &error);
+  ModelPtr final_model = BuildScenario(model_path, ScenarioOf(found_effects, -1), *held, &final_sensors, &error);
   if (!final_model) {
     out.error = error;
     return out;
