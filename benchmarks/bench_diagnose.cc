@@ -13,7 +13,8 @@
 //   heat_transfer  gas energy equation, per-chamber wall conductance -> one conductance for both chambers
 //   supply_drop    a shared reservoir behind a restrictive line      -> a lower constant supply pressure
 //   payload        a heavier moving body                              -> added mass
-//   line_dynamics  tube volume and restriction                       -> (same keys; the truth has no line_delay)
+//   line_dynamics  tube volume and restriction; for the proportional   -> tube volume and restriction
+//                  valves also with a 3 ms transport delay (line_delay)     (no delay)
 //   sensor_bias    offset and gain of the logged p_P                 -> offset and gain of one signal
 // Prints one line per case, the confusion matrix (true effect vs verdict) and the median held-out
 // shrink of the cases with an effect. Usage: bench_diagnose [--quick] [--rig A|B|C] [--case TEXT] [--duration S]
@@ -161,8 +162,16 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
                  {{"cyl", {"TP", "TN"}, {}, {}, {{"thermal_model", "energy"}, {"P.wall_heat_conductance", num(mcv / 0.3)}, {"N.wall_heat_conductance", num(mcv / 0.6)}}}}});
   }
   if (HasKey("line_volume")) {
-    t.push_back({"tube of half the mid-stroke volume behind a restriction", {"line_dynamics"},
-                 {{"cyl", {"LP", "LN"}, {}, {}, {{"line_volume", num(0.5 * rig.mid_volume)}, {"line_conductance", num(1.5 * rig.valve_conductance)}}}}});
+    dg::ModelEdit line{"cyl", {"LP", "LN"}, {}, {}, {{"line_volume", num(0.5 * rig.mid_volume)}, {"line_conductance", num(1.5 * rig.valve_conductance)}}};
+    t.push_back({"tube of half the mid-stroke volume behind a restriction", {"line_dynamics"}, {line}});
+    if (valve != "onoff" && HasKey("line_delay")) {
+      // the same tube with a 1 m tube's transport delay, L/c = 1 m / 343 m/s (the candidate has none)
+      line.keys.push_back({"line_delay", "0.003"});
+      const std::vector<std::string> delay_states =
+          valve == "proportional_5_3" ? std::vector<std::string>{"d1", "d2"} : std::vector<std::string>{"dP1", "dP2", "dN1", "dN2"};
+      line.state_actuators.insert(line.state_actuators.end(), delay_states.begin(), delay_states.end());
+      t.push_back({"the same tube with a 3 ms transport delay", {"line_dynamics"}, {line}});
+    }
   }
   t.push_back({"payload: mass x 5", {"payload"}, {}, 4 * rig.mass});
   t.push_back({"p_P sensor offset 15 kPa, gain 1.03", {"sensor_bias"}, {}, 0, 15000, 1.03});

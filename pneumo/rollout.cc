@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "pneumatic/pneumatic.h"
+#include "prescribed_motion.h"
 
 namespace pneumatic {
 namespace {
@@ -175,31 +176,20 @@ RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutO
       double velocity = v >= 0 ? commands->values[v][row] : 0;
       if (step >= 0 && x >= 0 && v >= 0 && row + 1 < commands->rows()) {
         double x0 = position, v0 = velocity, x1 = commands->values[x][row + 1], v1 = commands->values[v][row + 1];
-        auto hermite = [&](double s) {
-          double s2 = s * s, s3 = s2 * s;
-          return (2 * s3 - 3 * s2 + 1) * x0 + (s3 - 2 * s2 + s) * period * v0 + (-2 * s3 + 3 * s2) * x1 +
-                 (s3 - s2) * period * v1;
-        };
         double s0 = static_cast<double>(step) / static_cast<double>(steps);
         double s1 = static_cast<double>(step + 1) / static_cast<double>(steps);
-        position = hermite(s0);
-        velocity = (hermite(s1) - position) / timestep;
+        position = HermitePosition(x0, v0, x1, v1, period, s0);
+        velocity = (HermitePosition(x0, v0, x1, v1, period, s1) - position) / timestep;
       }
       if (x >= 0) data->qpos[m->jnt_qposadr[joint]] = (position + c.x_mid) / gear;
       if (v >= 0) data->qvel[m->jnt_dofadr[joint]] = velocity / gear;
     }
     return "";
   };
-  // with the motion prescribed, cancel the smooth forces so that MuJoCo's semi-implicit step moves
-  // each piston exactly to the curve's next point (and the chamber step sees that velocity)
+  // with the motion prescribed, each piston moves exactly to the curve's next point
   auto step_along_motion = [&](mjData* data, size_t row, long k) {
     set_motion(data, row, k);
-    mju_zero(data->qfrc_applied, m->nv);
-    mj_forward(m, data);
-    for (int i = 0; i < m->nv; ++i) {
-      data->qfrc_applied[i] = -(data->qfrc_passive[i] - data->qfrc_bias[i] + data->qfrc_actuator[i]);
-    }
-    mj_step(m, data);
+    StepAlongPrescribedMotion(m, data);
   };
   if (options.follow_motion) {
     if (!commands) return fail("following the measured motion needs a log");

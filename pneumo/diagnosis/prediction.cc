@@ -6,6 +6,8 @@
 #include <memory>
 #include <thread>
 
+#include "prescribed_motion.h"
+
 namespace pneumatic::diagnosis {
 namespace {
 
@@ -80,8 +82,7 @@ class WindowRunner {
   }
 
   // the piston on the cubic Hermite curve through the row's and the next row's measured x and
-  // estimated v, the smooth forces cancelled so that the step lands on the curve's next point (as
-  // pneumo/rollout.cc follows a log's motion)
+  // estimated v (prescribed_motion.h, as pneumo rollout --follow-motion)
   void FollowMeasuredMotion(int row, int k) {
     mjData* d = d_.get();
     const double period = meas_.period, h = m_->opt.timestep;
@@ -92,20 +93,12 @@ class WindowRunner {
       const double gain = sensors_.gain[base + kPosition];
       const double x0 = TrueValue(meas_, sensors_, base + kPosition, row), x1 = TrueValue(meas_, sensors_, base + kPosition, next);
       const double v0 = cyl.velocity[row] / gain, v1 = cyl.velocity[next] / gain;
-      auto hermite = [&](double s) {
-        const double s2 = s * s, s3 = s2 * s;
-        return (2 * s3 - 3 * s2 + 1) * x0 + (s3 - 2 * s2 + s) * period * v0 + (-2 * s3 + 3 * s2) * x1 + (s3 - s2) * period * v1;
-      };
-      const double a = hermite(static_cast<double>(k) / meas_.steps_per_row);
-      const double b = hermite(static_cast<double>(k + 1) / meas_.steps_per_row);
+      const double a = HermitePosition(x0, v0, x1, v1, period, static_cast<double>(k) / meas_.steps_per_row);
+      const double b = HermitePosition(x0, v0, x1, v1, period, static_cast<double>(k + 1) / meas_.steps_per_row);
       d->qpos[m_->jnt_qposadr[cyl.joint]] = (a + cyl.info.x_mid) / cyl.gear;
       d->qvel[m_->jnt_dofadr[cyl.joint]] = (b - a) / h / cyl.gear;
     }
-    mju_zero(d->qfrc_applied, m_->nv);
-    mj_forward(m_, d);
-    for (int i = 0; i < m_->nv; ++i) d->qfrc_applied[i] = -(d->qfrc_passive[i] - d->qfrc_bias[i] + d->qfrc_actuator[i]);
-    mj_step(m_, d);
-    mju_zero(d->qfrc_applied, m_->nv);
+    StepAlongPrescribedMotion(m_, d);
   }
 
   void Record(int row, std::vector<std::vector<double>>* out) {
