@@ -173,6 +173,13 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
       t.push_back({"the same tube with a 3 ms transport delay", {"line_dynamics"}, {line}});
     }
   }
+  {
+    // a supply tank of 10 mid-stroke chambers behind a supply line of half the valve's conductance:
+    // the supply sags while the valves draw and refills through the line
+    dg::ModelEdit supply{"cyl", {}, {}, {}, {}, "tank",
+                         {{"volume", num(10 * rig.mid_volume)}, {"line_conductance", num(0.5 * rig.valve_conductance)}}};
+    t.push_back({"supply tank of 10 chamber volumes behind a restrictive line", {"supply_drop"}, {supply}});
+  }
   t.push_back({"payload: mass x 5", {"payload"}, {}, 4 * rig.mass});
   t.push_back({"p_P sensor offset 15 kPa, gain 1.03", {"sensor_bias"}, {}, 0, 15000, 1.03});
   t.push_back({"payload (mass x 5) and p_P sensor offset 15 kPa", {"payload", "sensor_bias"}, {}, 4 * rig.mass, 15000, 1.03});

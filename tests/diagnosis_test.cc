@@ -136,6 +136,25 @@ TEST(DiagnosisCandidates, EditedModelGainsTheEffectStatesAndKeys) {
   EXPECT_NE(error.find("rig_per_chamber.xml"), std::string::npos) << error;
 }
 
+// The supply_drop truth of bench_diagnose: a reservoir added by an edit feeds the cylinder, and a
+// chamber filling from it draws its pressure below the compressor's.
+TEST(DiagnosisCandidates, EditedModelGainsAReservoirThatFeedsTheCylinder) {
+  std::string error;
+  ModelEdit tank{"cyl", {}, {}, {}, {}, "tank", {{"volume", "1e-4"}, {"line_conductance", "1e-9"}}};
+  ModelPtr m = LoadEditedModel(kRigC, {tank}, &error);
+  ASSERT_TRUE(m) << error;
+  const std::vector<ReservoirInfo> reservoirs = Reservoirs(m.get());
+  ASSERT_EQ(reservoirs.size(), 1u);
+  EXPECT_EQ(reservoirs[0].name, "tank");
+  EXPECT_DOUBLE_EQ(reservoirs[0].volume, 1e-4);
+  EXPECT_EQ(reservoirs[0].cylinders, std::vector<std::string>{"cyl"});
+  std::unique_ptr<mjData, void (*)(mjData*)> d(mj_makeData(m.get()), mj_deleteData);
+  EXPECT_DOUBLE_EQ(ReservoirPressure(m.get(), d.get(), reservoirs[0]), reservoirs[0].p_source) << "charged at reset";
+  d->ctrl[mj_name2id(m.get(), mjOBJ_ACTUATOR, "cyl.uP")] = 10;  // P's supply port wide open
+  for (int i = 0; i < 200; ++i) mj_step(m.get(), d.get());
+  EXPECT_LT(ReservoirPressure(m.get(), d.get(), reservoirs[0]), 0.99 * reservoirs[0].p_source);
+}
+
 // End to end: a biased p_P sensor (offset 15 kPa, gain 1.03) is named, its offset and gain are
 // recovered within 4 standard errors, and the held-out gap shrinks; the same rig without the
 // bias gives `none`.

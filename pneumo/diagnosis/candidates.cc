@@ -92,6 +92,7 @@ ModelPtr LoadEditedModel(const std::string& path, const std::vector<ModelEdit>& 
     const size_t end = xml.find('"', data + 6);
     std::string added;
     for (const auto& [key, value] : e.keys) added += " " + key + "=" + value;
+    if (!e.reservoir.empty()) added += " supply=" + e.reservoir;
     xml = Replace(xml, end, 0, added);
     // state actuators: on the chamber P actuator's transmission, after every other actuator
     // (MuJoCo 2.2 wants stateless actuators first)
@@ -106,7 +107,17 @@ ModelPtr LoadEditedModel(const std::string& path, const std::vector<ModelEdit>& 
       const size_t after_tag = xml.find_first_of(" \t\n", element);
       xml = Replace(xml, after_tag, 0, " dyntype=\"user\"");
     }
-    if (!e.state_actuators.empty() || !e.force_actuators.empty()) {
+    if (!e.reservoir.empty()) {
+      const size_t custom = xml.find("<custom>");
+      if (custom == std::string::npos) {
+        *error = path + ": no <custom> element to add reservoir '" + e.reservoir + "' to";
+        return ModelPtr(nullptr, mj_deleteModel);
+      }
+      std::string data;
+      for (const auto& [key, value] : e.reservoir_keys) data += (data.empty() ? "" : " ") + key + "=" + value;
+      xml = Replace(xml, custom + 8, 0, "\n<text name=\"pneumatic_reservoir:" + e.reservoir + "\" data=\"" + data + "\"/>");
+    }
+    if (!e.state_actuators.empty() || !e.force_actuators.empty() || !e.reservoir.empty()) {
       const size_t chamber = xml.find("\"" + e.cylinder + ".P\"");
       const size_t element = chamber == std::string::npos ? chamber : xml.rfind('<', chamber);
       const size_t element_end = element == std::string::npos ? element : xml.find('>', chamber);
@@ -125,6 +136,9 @@ ModelPtr LoadEditedModel(const std::string& path, const std::vector<ModelEdit>& 
       std::string actuators, forces;
       for (const std::string& suffix : e.state_actuators) {
         actuators += "<general name=\"" + e.cylinder + "." + suffix + "\" " + transmission + " dyntype=\"user\" gaintype=\"user\"/>\n";
+      }
+      if (!e.reservoir.empty()) {
+        actuators += "<general name=\"" + e.reservoir + ".pressure\" " + transmission + " dyntype=\"user\" gaintype=\"user\"/>\n";
       }
       for (const std::string& suffix : e.force_actuators) {
         forces += "\n<general name=\"" + e.cylinder + "." + suffix + "\" " + transmission + " gaintype=\"user\" biastype=\"user\"/>";
