@@ -555,12 +555,8 @@ TEST(ValveDeadband, CommandsInsideTheWidenedBandGiveOnlyTheLeaks) {
   Model zero(testing::ReplaceAll(rig, "valve=proportional_per_chamber", "valve=proportional_per_chamber deadband_voltage=0"));
   Model plain(rig);
   ASSERT_TRUE(zero.ok()) << zero.error();
-  for (int i = 0; i < 400; ++i) {
-    testing::PatternCommand(zero.cylinder(), zero.d(), i);
-    testing::PatternCommand(plain.cylinder(), plain.d(), i);
-    mj_step(zero.m(), zero.d());
-    mj_step(plain.m(), plain.d());
-  }
+  testing::RunPattern(zero.m(), zero.d(), zero.cylinder(), 0, 400);
+  testing::RunPattern(plain.m(), plain.d(), plain.cylinder(), 0, 400);
   EXPECT_TRUE(SameBits(State(zero.m(), zero.d()), State(plain.m(), plain.d())));
 }
 

@@ -297,12 +297,8 @@ TEST(LineDelay, StepsAsASpoolDeadTimeOfTheSumBitForBit) {
     Model split(c.split), sum(c.summed);
     ASSERT_TRUE(split.ok()) << split.error();
     ASSERT_TRUE(sum.ok()) << sum.error();
-    for (int i = 0; i < 800; ++i) {
-      testing::PatternCommand(split.cylinder(), split.d(), i);
-      testing::PatternCommand(sum.cylinder(), sum.d(), i);
-      mj_step(split.m(), split.d());
-      mj_step(sum.m(), sum.d());
-    }
+    testing::RunPattern(split.m(), split.d(), split.cylinder(), 0, 800);
+    testing::RunPattern(sum.m(), sum.d(), sum.cylinder(), 0, 800);
     EXPECT_TRUE(SameBits(State(split.m(), split.d()), State(sum.m(), sum.d())));
     EXPECT_NE(split.P(Chamber::kP), split.P(Chamber::kN)) << "the pattern moved the chambers";
   }
@@ -404,12 +400,8 @@ TEST(ValveDelay, DefaultsOffGiveTheSameBitsAsTheShippedRigs) {
     Model shipped(testing::ReadText(testing::ShippedModel(c.file))), named(c.named);
     ASSERT_TRUE(shipped.ok()) << shipped.error();
     ASSERT_TRUE(named.ok()) << named.error();
-    for (int i = 0; i < 800; ++i) {
-      testing::PatternCommand(shipped.cylinder(), shipped.d(), i);
-      testing::PatternCommand(named.cylinder(), named.d(), i);
-      mj_step(shipped.m(), shipped.d());
-      mj_step(named.m(), named.d());
-    }
+    testing::RunPattern(shipped.m(), shipped.d(), shipped.cylinder(), 0, 800);
+    testing::RunPattern(named.m(), named.d(), named.cylinder(), 0, 800);
     EXPECT_TRUE(SameBits(State(shipped.m(), shipped.d()), State(named.m(), named.d())));
   }
 }
