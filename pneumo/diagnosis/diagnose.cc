@@ -130,6 +130,21 @@ Candidate JointCandidate(const std::vector<FoundEffect>& found, int skip) {
   return joint;
 }
 
+std::vector<std::string> EffectsOf(const std::vector<FoundEffect>& found) {
+  std::vector<std::string> names;
+  for (const FoundEffect& f : found) names.push_back(f.candidate.effect);
+  return names;
+}
+
+// the prediction of `meas` by the scenario's model, or an Evaluated with only `error` set
+Evaluated EvaluateScenario(const std::string& model_path, const Scenario& scenario, const Measurements& meas,
+                           const GapOptions& gap) {
+  SensorModel sensors;
+  Evaluated ev;
+  ModelPtr m = BuildScenario(model_path, scenario, meas, &sensors, &ev.error);
+  return m ? Evaluate(m.get(), sensors, meas, gap) : ev;
+}
+
 Scenario ScenarioOf(const std::vector<FoundEffect>& found, int skip) {
   Candidate joint = JointCandidate(found, skip);
   std::vector<double> values;
@@ -238,7 +253,6 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
   out.signal_scale = train_gap.signal_scale;
   out.regimes = ClassifyRegimes(m, *held);
 
-  std::vector<std::string> found;
   SensorModel sensors = SensorModel::Identity(*held);
   out.before = Assess(m, sensors, *held, held_gap, out.regimes);
   if (!out.before.full.error.empty()) {
@@ -252,15 +266,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
   std::vector<FoundEffect> found_effects;
   std::vector<std::string> dropped;  // found, then dropped by the backward step: not tried again
   // the held-out prediction with the found effects but the skip-th (-1: all)
-  auto held_out_without = [&](int skip, std::string* why) {
-    Scenario sc = ScenarioOf(found_effects, skip);
-    SensorModel sm;
-    ModelPtr with = BuildScenario(model_path, sc, *held, &sm, why);
-    if (with) return Evaluate(with.get(), sm, *held, held_gap);
-    Evaluated failed;
-    failed.error = *why;
-    return failed;
-  };
+  auto held_out_without = [&](int skip) { return EvaluateScenario(model_path, ScenarioOf(found_effects, skip), *held, held_gap); };
   // the joint refit: every found effect's parameters together, from their values so far
   auto refit_found = [&](Round* r) {
     if (options.refit_iterations <= 0) return;
@@ -284,10 +290,19 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
       }
     }
   };
+  // after the found effects changed: the refit, then the held-out prediction with them; "" or why not
+  auto refit_and_predict = [&](Round* r) -> std::string {
+    refit_found(r);
+    base_held = held_out_without(-1);
+    if (!base_held.error.empty()) return "the model with the found effects cannot predict the held-out log: " + base_held.error;
+    r->refit_heldout_gap = base_held.gap;
+    return "";
+  };
   const int max_rounds = 2 * options.max_effects;  // a dropped effect frees a place; bounded all the same
-  for (int round = 0; round < max_rounds && static_cast<int>(found.size()) < options.max_effects; ++round) {
+  for (int round = 0; round < max_rounds && static_cast<int>(found_effects.size()) < options.max_effects; ++round) {
     Round r;
-    r.model_effects = found;
+    r.model_effects = EffectsOf(found_effects);
+    const std::vector<std::string>& found = r.model_effects;
     const Scenario scenario = ScenarioOf(found_effects, -1);
     r.heldout_gap_before = base_held.gap;
     r.effective_samples = EffectiveSamples(base_held, *held, held_gap);
@@ -325,11 +340,9 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
           result.parameters.push_back({c.parameters[i].name, c.parameters[i].unit, fit.values[i], fit.standard_errors[i],
                                        fit.poorly_determined[i]});
         }
-        SensorModel s;
-        ModelPtr with = BuildScenario(model_path, WithCandidate(scenario, c, fit.values), *held, &s, &error);
-        Evaluated ev = with ? Evaluate(with.get(), s, *held, held_gap) : Evaluated{};
-        if (!with || !ev.error.empty()) {
-          result.status = "failed: on the held-out log: " + (with ? ev.error : error);
+        Evaluated ev = EvaluateScenario(model_path, WithCandidate(scenario, c, fit.values), *held, held_gap);
+        if (!ev.error.empty()) {
+          result.status = "failed: on the held-out log: " + ev.error;
         } else {
           result.heldout_gap = ev.gap;
           result.improvement = (base_held.gap - ev.gap) / base_held.gap;
@@ -367,16 +380,11 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
       for (size_t j = 0; j < r.ranking[i].parameters.size(); ++j) {
         found_effects.back().candidate.parameters[j].initial = r.ranking[i].parameters[j].value;
       }
-      refit_found(&r);
-      base_held = held_out_without(-1, &error);
-      if (!base_held.error.empty()) {
-        out.error = "the model with the found effects cannot predict the held-out log: " + base_held.error;
+      if (std::string e = refit_and_predict(&r); !e.empty()) {
+        out.error = e;
         return out;
       }
-      if (!r.refit_status.empty()) {
-        r.refit_heldout_gap = base_held.gap;
-        say("  refit: " + r.refit_status + Fixed(", held-out gap %.4f", base_held.gap));
-      }
+      if (!r.refit_status.empty()) say("  refit: " + r.refit_status + Fixed(", held-out gap %.4f", base_held.gap));
       // the backward step: does each earlier effect still explain the gap given the others (the same
       // criteria, the effect's own parameters counted), with the values of the joint refit? The
       // weakest that does not is dropped, as in stepwise regression: an effect accepted first may only
@@ -384,7 +392,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
       int weakest = -1;
       double weakest_ic = -std::numeric_limits<double>::infinity(), weakest_improvement = 0;
       for (int e = 0; e + 1 < static_cast<int>(found_effects.size()); ++e) {
-        Evaluated without = held_out_without(e, &error);
+        Evaluated without = held_out_without(e);
         if (!without.error.empty()) continue;  // cannot do without it
         const double k = static_cast<double>(found_effects[e].candidate.parameters.size());
         const double ic = r.effective_samples * std::log(base_held.residuals.squaredNorm() / without.residuals.squaredNorm()) +
@@ -400,17 +408,12 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
         r.dropped_delta_ic = weakest_ic, r.dropped_improvement = weakest_improvement;
         dropped.push_back(r.dropped);
         found_effects.erase(found_effects.begin() + weakest);
-        refit_found(&r);
-        base_held = held_out_without(-1, &error);
-        if (!base_held.error.empty()) {
-          out.error = "the model with the found effects cannot predict the held-out log: " + base_held.error;
+        if (std::string e = refit_and_predict(&r); !e.empty()) {
+          out.error = e;
           return out;
         }
-        r.refit_heldout_gap = base_held.gap;
         say("  dropped " + r.dropped + Fixed(", held-out gap %.4f", base_held.gap));
       }
-      found.clear();
-      for (const FoundEffect& f : found_effects) found.push_back(f.candidate.effect);
       break;
     }
     say("round " + std::to_string(round + 1) + " verdict: " + r.accepted);
@@ -418,7 +421,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     out.rounds.push_back(std::move(r));
     if (stop) break;
   }
-  out.effects = found;
+  out.effects = EffectsOf(found_effects);
   for (const FoundEffect& f : found_effects) out.parameters.insert(out.parameters.end(), f.parameters.begin(), f.parameters.end());
   SensorModel final_sensors;
   ModelPtr final_model = BuildScenario(model_path, ScenarioOf(found_effects, -1), *held, &final_sensors, &error);
