@@ -74,7 +74,7 @@ const std::vector<double>* Column(const log::Log& log, const char* signal) {
 
 }  // namespace
 
-std::string Laib2021PwmRig(const std::string& xml, double frequency, std::string* error) {
+std::string Laib2021PwmRig(const std::string& xml, double frequency, std::string* error, const std::string& alignment) {
   std::string out = xml;
   const std::regex valves("<general name=\"cyl\\.u1\"[^>]*/>\\s*<general name=\"cyl\\.u2\"[^>]*/>\\s*"
                           "<general name=\"cyl\\.u3\"[^>]*/>\\s*<general name=\"cyl\\.u4\"[^>]*/>");
@@ -93,7 +93,7 @@ std::string Laib2021PwmRig(const std::string& xml, double frequency, std::string
   }
   std::ostringstream f;
   f << frequency;
-  out.insert(at + key.size(), " input=pwm pwm_frequency=" + f.str());
+  out.insert(at + key.size(), " input=pwm pwm_frequency=" + f.str() + " pwm_alignment=" + alignment);
   return out;
 }
 
@@ -271,8 +271,8 @@ nlohmann::json ReproduceLaib2021(const std::string& models_dir, const std::strin
     if (ec) return fail(out_dir + ": " + ec.message());
   }
   using Model = std::unique_ptr<mjModel, void (*)(mjModel*)>;
-  auto load = [&](double frequency, std::string* why) {
-    std::string xml = Laib2021PwmRig(rig, frequency, why);
+  auto load = [&](double frequency, std::string* why, const std::string& alignment = "center") {
+    std::string xml = Laib2021PwmRig(rig, frequency, why, alignment);
     return Model(xml.empty() ? nullptr : Laib2021LoadModel(xml, why), mj_deleteModel);
   };
 
@@ -284,7 +284,8 @@ nlohmann::json ReproduceLaib2021(const std::string& models_dir, const std::strin
   const std::vector<double> averaged = Laib2021OpenLoop(averaged_model.get());
   double lo = 1e300, hi = -1e300;
   for (double x : averaged) lo = std::min(lo, x), hi = std::max(hi, x);
-  nlohmann::json nrmsod = nlohmann::json::object(), nrmsod_latched = nlohmann::json::object();
+  nlohmann::json nrmsod = nlohmann::json::object(), nrmsod_latched = nlohmann::json::object(),
+                 nrmsod_leading = nlohmann::json::object();
   std::vector<double> values;
   for (double f : kFrequencies) {
     Model switched_model = load(f, &why);
@@ -294,8 +295,12 @@ nlohmann::json ReproduceLaib2021(const std::string& models_dir, const std::strin
     nrmsod_latched[Format(f, 6)] =
         Round(Laib2021Nrmsod(Laib2021OpenLoop(switched_model.get(), f), Laib2021OpenLoop(averaged_model.get(), f)), 3);
     values.push_back(v);
+    Model leading_model = load(f, &why, "leading");
+    if (!leading_model) return fail(path + " (PWM " + Format(f) + " Hz, leading edge): " + why);
+    nrmsod_leading[Format(f, 6)] = Round(Laib2021Nrmsod(Laib2021OpenLoop(leading_model.get()), averaged), 3);
   }
   report["nrmsod_pct"] = nrmsod;
+  report["nrmsod_pct_leading_edge"] = nrmsod_leading;
   report["nrmsod_pct_latched_duty"] = nrmsod_latched;
   if (!out_dir.empty()) {
     std::ofstream file(out_dir + "/laib2021_openloop_averaged.csv");
@@ -395,8 +400,8 @@ nlohmann::json ReproduceLaib2021(const std::string& models_dir, const std::strin
               "mode 7 for u < 0 (eqs. 12-13); pwm_frequency = 0 is the averaged model of eq. 14"},
       {"nrmsod_signal", "duty u(t) = 0.3 sin(2 pi 10 t) for 1 s from x = 0 with both chambers at 2e5 Pa abs; x every "
                         "1 ms; the same signal on the averaged and switched models, following the sine at every 0.05 ms "
-                        "model step (nrmsod_pct; the extension's leading-edge PWM compares it with the carrier as it "
-                        "goes), or latched at the start of every carrier period on both models "
+                        "model step (nrmsod_pct: the PWM compares it with the carrier as it goes, each pulse centred in "
+                        "its period; nrmsod_pct_leading_edge: the same with each pulse from its period's start), or latched at the start of every carrier period on both models "
                         "(nrmsod_pct_latched_duty; at 10 and 20 Hz the latch samples the sine at its zeros, so both "
                         "models stay at rest and the 0 there means nothing)"},
       {"open_loop_swing_mm", {Round(1e3 * lo, 2), Round(1e3 * hi, 2)}},

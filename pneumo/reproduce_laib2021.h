@@ -7,12 +7,14 @@
 //                  u(t) = 0.3 sin(2 pi 10 t) for 1 s (Section 4.2's 10 Hz sine; its "10 mm
 //                  amplitude" cannot be a duty, and 0.3 swings rig A's piston by about that),
 //                  from mid-stroke with both chambers at 2 bar abs; x sampled every 1 ms. The
-//                  duty follows the sine at every model step (the extension's leading-edge PWM
-//                  compares it with the carrier as it goes); at carriers that are odd multiples of
-//                  the 10 Hz signal the pulses sample it unevenly over its two half-waves, a net
-//                  push the open loop integrates (NRMSOD rises there). The variant with the duty
-//                  latched once per carrier period on both models is reported too
-//                  (nrmsod_pct_latched_duty).
+//                  duty follows the sine at every model step (the PWM compares it with the carrier
+//                  as it goes), each pulse centred in its period (pwm_alignment=center, the
+//                  default). Reported too: the same with edge-aligned pulses
+//                  (nrmsod_pct_leading_edge: each pulse shifted by up to half a period against the
+//                  averaged model, an error of first order in the period; at carriers that are odd
+//                  multiples of the 10 Hz signal the pulses sample its two half-waves unevenly, a
+//                  net push the open loop integrates), and with the duty latched once per carrier
+//                  period on both models (nrmsod_pct_latched_duty).
 //                  NRMSOD = RMS(y - y_a) / (max y_a - min y_a): eq. (16) divides sqrt(e'e) by
 //                  max|e|, which is >= 1 for any signal and grows with the sample count, so cannot be
 //                  the paper's "about 1 %"; we read it as the usual normalised RMS deviation.
@@ -36,9 +38,11 @@
 
 namespace pneumatic {
 
-// rig A's MJCF text (rig_onoff.xml's) with input=pwm at `frequency` Hz (0: averaged), one
-// actuator "cyl.duty"; "" and *error if the text is not rig A's.
-std::string Laib2021PwmRig(const std::string& rig_onoff_xml, double frequency, std::string* error);
+// rig A's MJCF text (rig_onoff.xml's) with input=pwm at `frequency` Hz (0: averaged) and
+// pwm_alignment `alignment` (center or leading), one actuator "cyl.duty"; "" and *error if the text
+// is not rig A's.
+std::string Laib2021PwmRig(const std::string& rig_onoff_xml, double frequency, std::string* error,
+                           const std::string& alignment = "center");
 
 // Loads MJCF text and attaches the extension; null and *error on failure.
 mjModel* Laib2021LoadModel(const std::string& xml, std::string* error);

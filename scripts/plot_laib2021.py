@@ -39,14 +39,18 @@ def main():
     freqs = sorted(float(k) for k in nrmsod)
     values = [nrmsod[k] for k in sorted(nrmsod, key=float)]
     fig, ax = plt.subplots(figsize=(6, 4))
-    ax.plot(freqs, values, "o-", label="rig A: switched vs averaged (eq. 16)")
+    ax.plot(freqs, values, "o-", label="rig A: switched (centred pulses) vs averaged (eq. 16)")
+    if "nrmsod_pct_leading_edge" in report:
+        leading = report["nrmsod_pct_leading_edge"]
+        ax.plot(sorted(float(k) for k in leading), [leading[k] for k in sorted(leading, key=float)], "s--",
+                color="tab:orange", alpha=0.7, label="the same, edge-aligned pulses")
     ax.plot([100], [report["paper"]["nrmsod_pct_at_100_hz"]], "rx", markersize=10, label="paper 003: ~1 % at 100 Hz")
     ax.axhline(2, color="grey", linestyle=":", label="issue 16: < 2 % at 100 Hz")
     ax.set_xlabel("PWM frequency (Hz)")
     ax.set_ylabel("NRMSOD (%)")
     ax.set_yscale("log")
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend()
+    ax.legend(loc="lower left", fontsize="small")
     fig.tight_layout()
     fig.savefig(os.path.join(out, "laib2021_nrmsod.png"), dpi=120)
     plt.close(fig)

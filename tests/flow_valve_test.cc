@@ -207,9 +207,10 @@ TEST(OnOffValve, PulseShorterThanTheOpeningDelayNeverOpens) {
 }
 
 TEST(OnOffValve, SwitchedPwmOpensMode6ForTheDutyFraction) {
-  // paper 003 eqs. (12)-(13): duty 0.3 at 100 Hz: U1 and U4 open for the first 3 ms of each 10 ms
+  // paper 003 eqs. (12)-(13): duty 0.3 at 100 Hz, edge-aligned: U1 and U4 open for the first 3 ms of
+  // each 10 ms
   CylinderConfig c = OnOff(0, 0);
-  c.input = CommandInput::kPwm, c.pwm_frequency = 100;
+  c.input = CommandInput::kPwm, c.pwm_frequency = 100, c.pwm_alignment = PwmAlignment::kLeading;
   ValveInputs in;
   in.time = 0.02, in.step = 0.01, in.command[0] = 0.3;
   PortSchedule p(c, 0, in), n(c, 1, in);
@@ -223,6 +224,43 @@ TEST(OnOffValve, SwitchedPwmOpensMode6ForTheDutyFraction) {
   in.command[0] = -0.5;
   EXPECT_EQ(PortSchedule(c, 0, in).At(1e-3).exhaust, 3.4e-9);
   EXPECT_EQ(PortSchedule(c, 1, in).At(1e-3).supply, 3.4e-9);
+}
+
+TEST(OnOffValve, CentredPwmOpensInTheMiddleOfEachPeriod) {
+  // duty 0.3 at 100 Hz, centred (the default): open from 3.5 ms to 6.5 ms of each 10 ms period
+  CylinderConfig c = OnOff(0, 0);
+  c.input = CommandInput::kPwm, c.pwm_frequency = 100;
+  ASSERT_EQ(c.pwm_alignment, PwmAlignment::kCenter);
+  ValveInputs in;
+  in.time = 0.02, in.step = 0.01, in.command[0] = 0.3;
+  PortSchedule p(c, 0, in);
+  ASSERT_EQ(p.breakpoints().size(), 2u);
+  EXPECT_NEAR(p.breakpoints()[0], 3.5e-3, 1e-12);
+  EXPECT_NEAR(p.breakpoints()[1], 6.5e-3, 1e-12);
+  EXPECT_EQ(p.At(1e-3).supply, 0.0);
+  EXPECT_EQ(p.At(5e-3).supply, 3.4e-9);
+  EXPECT_EQ(p.At(8e-3).supply, 0.0);
+  // a step that ends before the pulse starts, one that starts inside it, one that straddles two periods
+  in.time = 0.021, in.step = 1e-3;
+  EXPECT_TRUE(PortSchedule(c, 0, in).breakpoints().empty());
+  EXPECT_EQ(PortSchedule(c, 0, in).At(0.5e-3).supply, 0.0);
+  in.time = 0.025, in.step = 1e-3;  // 25 to 26 ms, inside the pulse (23.5 to 26.5 ms) throughout
+  EXPECT_TRUE(PortSchedule(c, 0, in).breakpoints().empty());
+  EXPECT_EQ(PortSchedule(c, 0, in).At(0).supply, 3.4e-9);
+  in.time = 0.0255, in.step = 2e-3;  // 25.5 to 27.5 ms: closes 1 ms into the step
+  ASSERT_EQ(PortSchedule(c, 0, in).breakpoints().size(), 1u);
+  EXPECT_NEAR(PortSchedule(c, 0, in).breakpoints()[0], 1e-3, 1e-12);
+  in.time = 0.0265, in.step = 0.01;  // 26.5 to 36.5 ms: the next pulse is 33.5 to 36.5 ms
+  PortSchedule next(c, 0, in);
+  ASSERT_EQ(next.breakpoints().size(), 1u);
+  EXPECT_NEAR(next.breakpoints()[0], 7e-3, 1e-12);
+  EXPECT_EQ(next.At(1e-3).supply, 0.0);
+  EXPECT_EQ(next.At(8e-3).supply, 3.4e-9);
+  // per carrier period the valve is open for the duty fraction, wherever the pulse sits
+  c.pwm_alignment = PwmAlignment::kLeading;
+  in.time = 0.02, in.step = 0.01;
+  PortSchedule leading(c, 0, in);
+  EXPECT_NEAR(leading.breakpoints()[0], 3e-3, 1e-12);
 }
 
 TEST(OnOffValve, AveragedPwmScalesTheOpeningByTheDuty) {

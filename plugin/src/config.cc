@@ -106,6 +106,8 @@ const Param kParams[] = {
      "closing delay of each on/off valve (paper 002: 0.2e-3); the armature model that realises it is the project's own", CYL(delay_close)},
     {"pwm_frequency", Scope::kCylinder, AppliesTo::kPwm, "Hz", "0", nullptr, 0, 1e5, false, false,
      "PWM carrier frequency; 0 = the averaged model of paper 003 eq. 14", CYL(pwm_frequency)},
+    {"pwm_alignment", Scope::kCylinder, AppliesTo::kPwm, "", "center", "center leading", 0, 0, false, false,
+     "where each pulse of switched PWM sits in its carrier period: centred on the period's middle (symmetric PWM; its pulse has the same centroid as the averaged model's spread-out opening, so eq. 14 matches it to second order in the period) or from the period's start (edge-aligned PWM, as many microcontroller timers do by default; it shifts each pulse by up to half a period against eq. 14)", nullptr},
     {"thermal_model", Scope::kCylinder, AppliesTo::kAll, "", "polytropic", "polytropic energy", 0, 0, false, false,
      "gas temperature: polytropic chambers at a fixed temperature (default), or the energy equation of an open chamber with heat exchange with the wall at temperature (Richer and Hurmuzlu 2000; state actuators <name>.TP, <name>.TN; needs wall_heat_conductance)", nullptr},
     {"coulomb_friction", Scope::kCylinder, AppliesTo::kAll, "N (N m)", "none", nullptr, 0, 1e6, false, false,
@@ -403,6 +405,10 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
     if (!parser.Choice(*FindParam("input"), "input", text_value, &index)) return std::nullopt;
     c.input = static_cast<CommandInput>(index);
   }
+  if (lookup(raw.cylinder, *FindParam("pwm_alignment"), &text_value)) {
+    if (!parser.Choice(*FindParam("pwm_alignment"), "pwm_alignment", text_value, &index)) return std::nullopt;
+    c.pwm_alignment = static_cast<PwmAlignment>(index);
+  }
   if (lookup(raw.cylinder, *FindParam("step"), &text_value)) {
     if (!parser.Choice(*FindParam("step"), "step", text_value, &index)) return std::nullopt;
     c.step = static_cast<ChamberStep>(index);
@@ -599,6 +605,7 @@ namespace {
 int ChoiceIndex(const CylinderConfig& c, const std::string& key, int k) {
   if (key == "valve") return static_cast<int>(c.valve);
   if (key == "input") return static_cast<int>(c.input);
+  if (key == "pwm_alignment") return static_cast<int>(c.pwm_alignment);
   if (key == "step") return static_cast<int>(c.step);
   if (key == "friction_model") return static_cast<int>(c.friction_model);
   if (key == "thermal_model") return static_cast<int>(c.thermal_model);
@@ -609,6 +616,7 @@ int ChoiceIndex(const CylinderConfig& c, const std::string& key, int k) {
 void SetChoiceIndex(CylinderConfig* c, const std::string& key, int k, int index) {
   if (key == "valve") c->valve = static_cast<ValveKind>(index);
   if (key == "input") c->input = static_cast<CommandInput>(index);
+  if (key == "pwm_alignment") c->pwm_alignment = static_cast<PwmAlignment>(index);
   if (key == "step") c->step = static_cast<ChamberStep>(index);
   if (key == "friction_model") c->friction_model = static_cast<FrictionModel>(index);
   if (key == "thermal_model") c->thermal_model = static_cast<ThermalModel>(index);

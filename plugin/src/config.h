@@ -24,6 +24,12 @@ enum class CommandInput {
   kPwm,     // duty in [-1, 1] (paper 003 eqs. 12-13)
 };
 
+// where a switched PWM pulse sits in its carrier period
+enum class PwmAlignment {
+  kCenter,   // centred on the period's middle (symmetric, triangle-carrier PWM)
+  kLeading,  // from the period's start (edge-aligned, sawtooth-carrier PWM)
+};
+
 // mass flow through one valve port
 enum class FlowLaw {
   kIso6358,    // sonic conductance and critical ratio (paper 002 eq. 4, paper 003 eq. 3)
@@ -121,6 +127,7 @@ struct CylinderConfig {
   double delay_open = 0;       // s, opening delay of each valve (paper 002: 1.3 ms)
   double delay_close = 0;      // s, closing delay (paper 002: 0.2 ms)
   double pwm_frequency = 0;    // Hz; 0 with input=pwm: the averaged model of paper 003 eq. 14
+  PwmAlignment pwm_alignment = PwmAlignment::kCenter;
   // seal friction on top of the joint's (or tendon's) frictionloss
   std::optional<double> coulomb_friction;  // N (N m): sliding friction level
   double stribeck_velocity = 0;            // m/s (rad/s)

@@ -24,7 +24,7 @@ Timeline CommandTimeline(const CylinderConfig& c, int valve, const ValveInputs& 
     return events;
   }
   // switched PWM of paper 003 eqs. (12)-(13): mode 6 (U1, U4) for u >= 0, mode 7 (U2, U3) for u < 0,
-  // on for |u| of each carrier period, starting at the period's beginning
+  // on for |u| of each carrier period, centred on the period's middle or from its start (pwm_alignment)
   double duty = std::clamp(in.command[0], -1.0, 1.0);
   bool active = duty >= 0 ? (valve == 0 || valve == 3) : (valve == 1 || valve == 2);
   double on_fraction = std::fabs(duty);
@@ -35,11 +35,13 @@ Timeline CommandTimeline(const CylinderConfig& c, int valve, const ValveInputs& 
   double period = 1 / c.pwm_frequency;
   double t0 = in.time, t1 = in.time + in.step;
   double k = std::floor(t0 / period);
+  double offset = c.pwm_alignment == PwmAlignment::kCenter ? (1 - on_fraction) * period / 2 : 0;
   auto push = [&](double tau, bool on) {
     if (events.empty() || events.back().second != on) events.push_back({tau, on});
   };
   for (; k * period < t1; k += 1) {
-    double on_start = k * period, on_end = on_start + on_fraction * period;
+    double on_start = k * period + offset, on_end = on_start + on_fraction * period;
+    if (on_start >= t1) break;
     push(std::max(on_start - t0, 0.0), on_start <= t0 ? t0 < on_end : true);
     if (on_end > t0 && on_end < t1) push(on_end - t0, false);
   }
