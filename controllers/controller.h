@@ -19,6 +19,11 @@ struct CylinderMeasurement {
   double p_P = 0, p_N = 0;  // Pa abs
   double x = 0;             // m or rad: piston position, 0 at mid-stroke
   double reference = 0;     // the target for x at this tick
+  // 1/kg (1/(kg m^2) for a rotary cylinder): the piston's acceleration per unit of its own force
+  // at this tick's pose with the joints it does not move held still, |J|^4 / (J M J'), J the
+  // actuator's moment (dx/dq) and M the mass matrix: what a model-based controller computes from
+  // the joint encoders and the robot's model; 0 where the rollout gives none
+  double mobility = 0;
 };
 
 // The commands a controller writes for one cylinder: (log signal, value) pairs, e.g. {"uP", 5.6}.

@@ -27,6 +27,8 @@ class Pid {
   // command for this sample, given reference and measured position
   double Update(double reference, double position);
   void Reset() { integral_ = 0, has_previous_ = false; }
+  // new gains from the next sample on; the state (integral of the error) is kept
+  void SetGains(const PidGains& gains) { gains_ = gains; }
 
   // the state: {integral of the error (error unit x s), previous position, 1 if there is one}
   static constexpr int kStateSize = 3;

@@ -14,6 +14,21 @@
 //   on/off valves on PWM (paper 003): duty = d.
 // The defaults kp = 1.5, ki = 1.5 1/s, kd = 0.0375 s with s = 2 V are, on rig C (l/2 = 50 mm),
 // the gains `pneumo generate` uses there: s kp / (l/2) = 60 V/m, 60 V/(m s), 1.5 V s/m.
+//
+// One set of normalised gains cannot suit a robot whose joints differ a thousandfold in inertia per
+// unit of force (a humanoid's toe and its waist): on the waist they leave the loop undamped. With
+// bandwidth w > 0 the gains are raised per cylinder and per tick where its load needs it (the
+// project's own form). The cylinder is taken as a double integrator from demand to normalised
+// position, x''/(l/2) = a d, whose authority
+//   a = F_span * mobility / (l/2)   (1/s^2)
+// is that acceleration at full demand, with F_span = mean piston area * (p_supply - p_exhaust) and
+// mobility the inverse inertia the piston sees at the measured pose (CylinderMeasurement). The gains
+// that put the three closed-loop poles of s^3 + a kd s^2 + a kp s + a ki at -w,
+//   kp = 3 w^2 / a,  kd = 3 w / a,  ki = w^3 / a,
+// replace kp, kd, ki where they are larger. Where they are smaller (a light joint on a strong
+// cylinder) the fixed gains stay: the design leaves out the valve's seal band, and a demand that
+// small would leave the valve inside it. It also leaves out the pressure dynamics, so it holds while
+// the chambers fill faster than 1/w.
 #ifndef PNEUMATIC_CONTROLLERS_POSITION_PID_H_
 #define PNEUMATIC_CONTROLLERS_POSITION_PID_H_
 
@@ -33,6 +48,8 @@ struct ValveDrive {
   double u_max = 5;                 // V: 5/3 valve saturation
   double command_min = 0, command_max = 10;  // V: per chamber, the actuators' ctrlrange
   double p_supply = 0, p_exhaust = 0;        // Pa abs: the cylinder's supply and exhaust pressures
+  double force_span = 0;  // N (N m): the piston's force with one chamber at p_supply and the other at
+                          // p_exhaust, on the mean of its two faces' areas
 };
 
 struct PositionPidGains {
@@ -42,6 +59,7 @@ struct PositionPidGains {
   double co_contraction = 0.5; // V above the valve centre on both chambers (per-chamber valves): stiffness
   double swing = 2;            // V of command per unit of demand (per-chamber valves)
   double onoff_band = 0.05;    // demand below which on/off valves stay closed
+  double bandwidth = 0;        // rad/s; > 0: kp, ki, kd raised per cylinder and tick to its load (above)
 };
 
 class PositionPid : public Controller {
@@ -55,6 +73,9 @@ class PositionPid : public Controller {
   bool SetState(const std::vector<double>& state) override;
 
  private:
+  // the gains of cylinder i for this tick's measurement
+  PidGains GainsAt(size_t i, const CylinderMeasurement& measured) const;
+
   std::vector<ValveDrive> drives_;
   std::vector<PositionPidGains> gains_;
   std::vector<Pid> pids_;

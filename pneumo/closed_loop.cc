@@ -22,6 +22,10 @@ std::string DriveOf(const mjModel* m, const CylinderInfo& c, ValveDrive* drive) 
   if (!valve || !stroke) return error;
   drive->half_stroke = *stroke / 2;
   drive->p_supply = c.p_supply, drive->p_exhaust = c.p_exhaust;
+  std::optional<double> area_P = GetParameter(m, c.name, "P.area", &error);
+  std::optional<double> area_N = GetParameter(m, c.name, "N.area", &error);
+  if (!area_P || !area_N) return error;
+  drive->force_span = (*area_P + *area_N) / 2 * (c.p_supply - c.p_exhaust);
   if (*valve == "proportional_per_chamber") {
     drive->kind = ValveDrive::Kind::kPerChamber;
     std::optional<double> u_c = GetParameter(m, c.name, "P.u_supply_seal", &error);
@@ -100,6 +104,31 @@ struct Channel {
   Stream noise;
   std::vector<std::pair<int, int>> command_columns;  // (actuator, output column) by the commands' order
 };
+
+// |J|^4 / (J M J') of each cylinder's chamber actuator (CylinderMeasurement::mobility) at the pose of
+// d: the inertia the piston sees when the joints move along J alone (q' = J' x' / |J|^2, kinetic
+// energy x'^2 J M J' / (2 |J|^4)); holding the other joints, rather than leaving them free (J M^-1 J'),
+// is what their own controllers do. Computed on `scratch` from the position stage alone, so that d
+// and its next step are untouched.
+void Mobilities(const mjModel* m, const mjData* d, mjData* scratch, const std::vector<Channel>& channels,
+                std::vector<double>* out) {
+  mju_copy(scratch->qpos, d->qpos, m->nq);
+  mju_copy(scratch->mocap_pos, d->mocap_pos, 3 * m->nmocap);
+  mju_copy(scratch->mocap_quat, d->mocap_quat, 4 * m->nmocap);
+  mj_kinematics(m, scratch);
+  mj_comPos(m, scratch);
+  mj_tendon(m, scratch);
+  mj_transmission(m, scratch);
+  mj_crb(m, scratch);
+  std::vector<mjtNum> inertia_times_moment(static_cast<size_t>(m->nv));
+  out->resize(channels.size());
+  for (size_t i = 0; i < channels.size(); ++i) {
+    const mjtNum* moment = scratch->actuator_moment + static_cast<size_t>(channels[i].info.chamber_actuator[0]) * m->nv;
+    mj_mulM(m, scratch, inertia_times_moment.data(), moment);
+    const double squared = mju_dot(moment, moment, m->nv), inertia = mju_dot(moment, inertia_times_moment.data(), m->nv);
+    (*out)[i] = inertia > 0 ? squared * squared / inertia : 0;
+  }
+}
 
 // the controller's commands must be each cylinder's command signals, in the order of its rest commands
 std::string CheckCommands(const std::vector<Channel>& channels, const std::vector<CylinderCommands>& commands) {
@@ -221,6 +250,9 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
   }
   std::vector<double> squared_error(channels.size(), 0);
   std::vector<CylinderMeasurement> measured(channels.size());
+  std::unique_ptr<mjData, void (*)(mjData*)> scratch(mj_makeData(m), mj_deleteData);
+  if (!scratch) return fail("mj_makeData failed");
+  std::vector<double> mobility;
   std::vector<CylinderCommands> commands(channels.size());
   if (options.observer) {
     if (std::string e = options.observer(d.get()); !e.empty()) return fail(e);
@@ -228,6 +260,7 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
   const auto start = std::chrono::steady_clock::now();
   for (long k = 0; k < ticks; ++k) {
     const double t = d->time;
+    Mobilities(m, d.get(), scratch.get(), channels, &mobility);
     for (size_t i = 0; i < channels.size(); ++i) {
       Channel& ch = channels[i];
       CylinderMeasurement& y = measured[i];
@@ -236,6 +269,7 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
       const double x_noise = options.noise_position * ch.noise.Gaussian();
       y.x = PistonPosition(m, d.get(), ch.info) + x_noise;
       y.reference = ch.reference.given() ? ch.reference.At(t) : ch.hold;
+      y.mobility = mobility[i];
       // the summary judges the true state, not the noisy sensors
       const double true_x = y.x - x_noise;
       const double error = std::fabs(y.reference - true_x);

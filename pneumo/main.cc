@@ -186,7 +186,8 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"pid", "none", "position_stiffness", "sliding3", "sliding7", "karpenko", "laib"}));
   rollout->add_option("--controller-config", closed.controller_config_path,
                       "JSON of the controller's keys. pid: kp, ki, kd (on the error over the half stroke), "
-                      "co_contraction and swing (V), onoff_band, \"cylinders\": {NAME: {...}}; the others: a flat "
+                      "co_contraction and swing (V), onoff_band, bandwidth (rad/s: gains raised per cylinder to its load), "
+                      "\"cylinders\": {NAME: {...}}; the others: a flat "
                       "object of numbers, keys and units in their headers (controllers/*.h); an unknown or "
                       "out-of-range key is refused, named");
   rollout->add_option("--reference", closed.reference_path, "log with <cylinder>.ref columns: the targets (default: hold the initial pose)");

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "closed_loop.h"
+#include "controller_config.h"
 #include "karpenko_pid.h"
 #include "laib_smc.h"
 #include "position_stiffness.h"
@@ -33,60 +34,14 @@ int Fail(const std::string& message) {
   return 1;
 }
 
-std::string ReadJson(const std::string& path, json* out) {
-  std::ifstream in(path);
-  if (!in) return path + ": cannot read";
-  try {
-    *out = json::parse(in);
-  } catch (const json::parse_error& e) {
-    return path + ": " + e.what();
-  }
-  return "";
-}
 
-// gains from a JSON object; unknown keys and values that are not finite numbers are refused
-std::string ReadGains(const json& object, const std::string& where, PositionPidGains* gains) {
-  static const std::vector<std::pair<const char*, double PositionPidGains::*>> kKeys = {
-      {"kp", &PositionPidGains::kp},
-      {"ki", &PositionPidGains::ki},
-      {"kd", &PositionPidGains::kd},
-      {"co_contraction", &PositionPidGains::co_contraction},
-      {"swing", &PositionPidGains::swing},
-      {"onoff_band", &PositionPidGains::onoff_band}};
-  for (const auto& [key, value] : object.items()) {
-    if (key == "cylinders") continue;
-    auto it = std::find_if(kKeys.begin(), kKeys.end(), [&](const auto& k) { return key == k.first; });
-    if (it == kKeys.end()) return where + ": unknown key '" + key + "' (kp, ki, kd, co_contraction, swing, onoff_band, cylinders)";
-    if (!value.is_number() || !std::isfinite(value.get<double>()) || value.get<double>() < 0) {
-      return where + ": key '" + key + "' must be a number >= 0";
-    }
-    gains->*(it->second) = value.get<double>();
-  }
-  return "";
-}
 
-// {"kp": 1.5, ..., "cylinders": {"knee": {"kp": 3}}}: defaults for every cylinder, then per cylinder
-std::string ReadControllerConfig(const std::string& path, ClosedLoopOptions* options) {
-  json config;
-  if (std::string e = ReadJson(path, &config); !e.empty()) return e;
-  if (!config.is_object()) return path + ": expected a JSON object";
-  if (std::string e = ReadGains(config, path, &options->gains); !e.empty()) return e;
-  if (config.contains("cylinders")) {
-    if (!config["cylinders"].is_object()) return path + ": 'cylinders' must be an object of cylinder names";
-    for (const auto& [name, object] : config["cylinders"].items()) {
-      PositionPidGains gains = options->gains;
-      if (std::string e = ReadGains(object, path + ": cylinders." + name, &gains); !e.empty()) return e;
-      options->cylinder_gains[name] = gains;
-    }
-  }
-  return "";
-}
 
 // The papers' controllers take "key=value ..." configurations (their key tables name units and
 // ranges); --controller-config gives them as a flat JSON object of numbers.
 std::string JsonToKeyValues(const std::string& path, std::string* text) {
   json config;
-  if (std::string e = ReadJson(path, &config); !e.empty()) return e;
+  if (std::string e = ReadJsonFile(path, &config); !e.empty()) return e;
   if (!config.is_object()) return path + ": expected a JSON object of key: number";
   for (const auto& [key, value] : config.items()) {
     if (!value.is_number()) return path + ": key '" + key + "' must be a number";
@@ -148,7 +103,7 @@ struct Variation {
 
 std::string ReadVariations(const std::string& path, std::vector<Variation>* out) {
   json list;
-  if (std::string e = ReadJson(path, &list); !e.empty()) return e;
+  if (std::string e = ReadJsonFile(path, &list); !e.empty()) return e;
   if (!list.is_array() || list.empty()) return path + ": expected a non-empty array of {\"name\", \"set\"}";
   for (const json& item : list) {
     if (!item.is_object() || !item.contains("name") || !item["name"].is_string() || !item.contains("set") ||
@@ -217,6 +172,7 @@ class ProgressBar {
 };
 
 }  // namespace
+
 
 int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
   char error_text[1000] = "";

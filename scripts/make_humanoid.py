@@ -131,8 +131,11 @@ def arm(side):
          (0.2, ("sphere", 0.035)), ("dsnu", 0.025, 0.100, (1, 0, 0), (0, 0, -1))),
         (p + "shoulder_roll", p + "shoulder_pitch", (0, 0, 0), (1, 0, 0), (-10, 90),
          (0.2, ("sphere", 0.03)), ("dsnu", 0.020, 0.080, (0, s, 0), (0, 0, -1))),
+        # shoulder yaw: a DSM-25, not a DSM-16: with the arm out and the elbow bent (the wave), the
+        # level forearm and hand load this axis with 2.7 N m of weight, over the DSM-16's 2.2 N m at
+        # this supply (2.5 N m at 6 bar gauge)
         (p + "shoulder_yaw", p + "shoulder_roll", (0, 0, 0), (0, 0, 1), (-60, 90),
-         (1.4, ("capsule", (0, 0, -0.02, 0, 0, -0.26), 0.04)), ("dsm", 16)),
+         (1.4, ("capsule", (0, 0, -0.02, 0, 0, -0.26), 0.04)), ("dsm", 25)),
         (p + "elbow", p + "shoulder_yaw", (0, 0, -0.28), (0, 1, 0), (-140, 0),
          (0.9, ("capsule", (0, 0, -0.02, 0, 0, -0.23), 0.033)), ("dsnu", 0.020, 0.080, (1, 0, 0), (0, 0, 1))),
         (p + "forearm_twist", p + "elbow", (0, 0, -0.25), (0, 0, 1), (-80, 80),

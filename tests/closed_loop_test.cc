@@ -14,6 +14,8 @@
 #include <nlohmann/json.hpp>
 
 #include "closed_loop.h"
+#include "controller_config.h"
+#include "log_csv.h"
 #include "position_pid.h"
 #include "position_stiffness.h"
 #include "sliding_mode.h"
@@ -99,6 +101,112 @@ TEST(PositionPid, StateRoundTripsAndRefusesAWrongSize) {
   EXPECT_EQ(ca[0][0].first, "uP");
   EXPECT_NEAR((ca[0][0].second + ca[0][1].second) / 2, 5 + 0.5, 1e-12);
   EXPECT_GT(ca[0][0].second, ca[0][1].second);  // x below its target: push P
+}
+
+// With a bandwidth, the gains of the triple pole at -w on the cylinder's authority
+// a = F_span mobility / (l/2) replace the fixed ones where larger, tick by tick; the integral of the
+// error carries over. By hand: F_span = 100 N, l/2 = 0.05 m, w = 20 rad/s, T = 0.01 s.
+TEST(PositionPid, BandwidthRaisesTheGainsToTheLoad) {
+  ValveDrive drive;
+  drive.half_stroke = 0.05, drive.force_span = 100;
+  PositionPidGains gains;
+  gains.kp = gains.ki = gains.kd = 0, gains.bandwidth = 20, gains.co_contraction = 0.5, gains.swing = 2;
+  PositionPid pid({drive}, {gains}, 0.01);
+  std::vector<CylinderCommands> out;
+  CylinderMeasurement y;
+  // mobility 2 1/kg: a = 4000 1/s^2, kp = 3 w^2/a = 0.3, ki = w^3/a = 2, kd = 3 w/a = 0.015; x = 0,
+  // ref = 1 mm: e = 0.02 (of l/2), no rate yet: d = 0.3 * 0.02 + 2 * 0.02 * 0.01 = 0.0064
+  y.x = 0, y.reference = 0.001, y.mobility = 2;
+  pid.Update(0, {y}, &out);
+  EXPECT_NEAR(out[0][0].second, 5 + 0.5 + 2 * 0.0064, 1e-12);
+  // mobility 4: a = 8000, the gains halve; x = 0.5 mm: e = 0.01, the integral 2e-4 + 1e-4, the rate
+  // 0.01 / 0.01 s: d = 0.15 * 0.01 + 1 * 3e-4 - 0.0075 * 1 = -0.0057
+  y.x = 0.0005, y.mobility = 4;
+  pid.Update(0.01, {y}, &out);
+  EXPECT_NEAR(out[0][0].second, 5 + 0.5 - 2 * 0.0057, 1e-12);
+  EXPECT_NEAR(out[0][1].second, 5 + 0.5 + 2 * 0.0057, 1e-12);
+  // fixed gains above the placed ones stay: kp = 1 against 0.15
+  PositionPidGains floor = gains;
+  floor.kp = 1;
+  PositionPid fixed({drive}, {floor}, 0.01);
+  y.x = 0, y.mobility = 4;
+  fixed.Update(0, {y}, &out);
+  EXPECT_NEAR(out[0][0].second, 5 + 0.5 + 2 * (1 * 0.02 + 1 * 0.02 * 0.01), 1e-12);
+  // no mobility measured: the fixed gains alone (kp = 1, ki = kd = 0)
+  PositionPid blind({drive}, {floor}, 0.01);
+  y.mobility = 0;
+  blind.Update(0, {y}, &out);
+  EXPECT_NEAR(out[0][0].second, 5 + 0.5 + 2 * 0.02, 1e-12);
+}
+
+// a controller that records each tick's mobility and leaves the valves at rest
+class MobilityRecorder : public Controller {
+ public:
+  explicit MobilityRecorder(std::vector<double>* seen) : seen_(seen) {}
+  double Period() const override { return 0.01; }
+  void Update(double, const std::vector<CylinderMeasurement>& measured, std::vector<CylinderCommands>* commands) override {
+    seen_->push_back(measured[0].mobility);
+    commands->assign(measured.size(), {{"uP", 5.0}, {"uN", 5.0}});
+  }
+  std::vector<double> State() const override { return {}; }
+  bool SetState(const std::vector<double>& state) override { return state.empty(); }
+
+ private:
+  std::vector<double>* seen_;
+};
+
+// On rig C the piston is the slide joint's 0.5 kg body: the rollout measures a mobility of 1/0.5 kg
+// at every tick, and computing it leaves the run as it was (the same log as without a controller
+// that reads it: the valves at rest either way)
+TEST(ClosedLoop, MeasuresTheMobilityThePistonSees) {
+  AttachedModel model;
+  ASSERT_TRUE(model.Load(ShippedModel("rig_per_chamber.xml"), true)) << model.error();
+  std::vector<double> seen;
+  ClosedLoopOptions options;
+  options.duration = 0.2;
+  options.controller = "custom";
+  options.make_controller = [&](const std::vector<ValveDrive>&, double, std::string*) {
+    return std::unique_ptr<Controller>(new MobilityRecorder(&seen));
+  };
+  ClosedLoopResult recorded = RunClosedLoop(model.m(), options);
+  ASSERT_TRUE(recorded.log) << recorded.error;
+  ASSERT_EQ(seen.size(), 20u);
+  for (double mobility : seen) EXPECT_NEAR(mobility, 1 / 0.5, 1e-12);
+  options.controller = "none";
+  ClosedLoopResult rest = RunClosedLoop(model.m(), options);
+  ASSERT_TRUE(rest.log) << rest.error;
+  for (size_t c = 0; c < rest.log->values.size(); ++c) EXPECT_EQ(recorded.log->values[c], rest.log->values[c]);
+}
+
+// The humanoid under its shipped gains (models_mjcf/humanoid_pid.json): holding its initial pose
+// while the chambers fill from atmosphere, every vane within 0.01 rad RMS and every linear cylinder
+// within 2.5 mm RMS (a tenth of the 25 mm strokes of its smallest cylinders; under the default gains
+// the waist yaw swings by 0.8 rad); performing the wave (models_mjcf/humanoid_wave.csv), the waving
+// joint within 0.1 rad RMS (the wave swings it by +-0.44 rad at 1 Hz), the other vanes within
+// 0.05 rad and the linear cylinders within 5 mm.
+TEST(Humanoid, HoldsItsPoseAndWavesUnderItsShippedGains) {
+  AttachedModel model;
+  ASSERT_TRUE(model.Load(ShippedModel("humanoid_pneumatic.xml"), true)) << model.error();
+  const mjModel* m = model.m();
+  log::ReadResult wave = log::ReadLog(ShippedModel("humanoid_wave.csv"), {});
+  ASSERT_TRUE(wave.log) << wave.error;
+  const std::vector<const log::Log*> references = {nullptr, &*wave.log};  // hold, then wave
+  for (const log::Log* reference : references) {
+    ClosedLoopOptions options;
+    ASSERT_EQ(ReadControllerConfig(ShippedModel("humanoid_pid.json"), &options), "");
+    options.duration = reference ? 7.5 : 5;
+    options.reference = reference;
+    ClosedLoopResult run = RunClosedLoop(m, options);
+    ASSERT_TRUE(run.log) << run.error;
+    const std::vector<CylinderInfo> cylinders = Cylinders(m);
+    ASSERT_EQ(run.summary.cylinders.size(), cylinders.size());
+    for (size_t i = 0; i < cylinders.size(); ++i) {
+      const CylinderSummary& s = run.summary.cylinders[i];
+      const bool vane = m->actuator_trntype[cylinders[i].chamber_actuator[0]] == mjTRN_JOINT;  // on its hinge
+      const double bound = !reference ? (vane ? 0.01 : 2.5e-3) : s.name == "r_shoulder_yaw" ? 0.1 : vane ? 0.05 : 5e-3;
+      EXPECT_LT(s.rms_tracking_error, bound) << s.name << (reference ? " in the wave" : " holding");
+    }
+  }
 }
 
 TEST(ClosedLoop, BadOptionsAreNamed) {

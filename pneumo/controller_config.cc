@@ -1,0 +1,66 @@
+#include "controller_config.h"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <utility>
+#include <vector>
+
+namespace pneumatic {
+
+using nlohmann::json;
+
+std::string ReadJsonFile(const std::string& path, json* out) {
+  std::ifstream in(path);
+  if (!in) return path + ": cannot read";
+  try {
+    *out = json::parse(in);
+  } catch (const json::parse_error& e) {
+    return path + ": " + e.what();
+  }
+  return "";
+}
+
+namespace {
+
+// gains from a JSON object; unknown keys and values that are not finite numbers are refused
+std::string ReadGains(const json& object, const std::string& where, PositionPidGains* gains) {
+  static const std::vector<std::pair<const char*, double PositionPidGains::*>> kKeys = {
+      {"kp", &PositionPidGains::kp},
+      {"ki", &PositionPidGains::ki},
+      {"kd", &PositionPidGains::kd},
+      {"co_contraction", &PositionPidGains::co_contraction},
+      {"swing", &PositionPidGains::swing},
+      {"onoff_band", &PositionPidGains::onoff_band},
+      {"bandwidth", &PositionPidGains::bandwidth}};
+  for (const auto& [key, value] : object.items()) {
+    if (key == "cylinders") continue;
+    auto it = std::find_if(kKeys.begin(), kKeys.end(), [&](const auto& k) { return key == k.first; });
+    if (it == kKeys.end()) return where + ": unknown key '" + key + "' (kp, ki, kd, co_contraction, swing, onoff_band, bandwidth, cylinders)";
+    if (!value.is_number() || !std::isfinite(value.get<double>()) || value.get<double>() < 0) {
+      return where + ": key '" + key + "' must be a number >= 0";
+    }
+    gains->*(it->second) = value.get<double>();
+  }
+  return "";
+}
+
+}  // namespace
+
+std::string ReadControllerConfig(const std::string& path, ClosedLoopOptions* options) {
+  json config;
+  if (std::string e = ReadJsonFile(path, &config); !e.empty()) return e;
+  if (!config.is_object()) return path + ": expected a JSON object";
+  if (std::string e = ReadGains(config, path, &options->gains); !e.empty()) return e;
+  if (config.contains("cylinders")) {
+    if (!config["cylinders"].is_object()) return path + ": 'cylinders' must be an object of cylinder names";
+    for (const auto& [name, object] : config["cylinders"].items()) {
+      PositionPidGains gains = options->gains;
+      if (std::string e = ReadGains(object, path + ": cylinders." + name, &gains); !e.empty()) return e;
+      options->cylinder_gains[name] = gains;
+    }
+  }
+  return "";
+}
+
+}  // namespace pneumatic
