@@ -17,6 +17,7 @@
 // it got as <name>.actual.png in the test's working directory (build/tests) and prints this command.
 #include <cmath>
 #include <cstdlib>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -470,6 +471,42 @@ TEST(RenderFrameWriter, WritesOneFramePerPeriodOfSimulatedTime) {
   EXPECT_EQ(frames->video_path(), "");
   options.fps = 0;
   EXPECT_FALSE(FrameWriter::Create(s.m, options, &error));
+  std::filesystem::remove_all(dir);
+}
+
+// With Debian's ffmpeg on the PATH (scripts/install-deps installs it), Finish() encodes the frames
+// into DIR/video.mp4: H.264 with one picture per frame, an odd size padded by a pixel to even.
+TEST(RenderFrameWriter, EncodesTheFramesIntoAnMp4WithFfmpeg) {
+  if (FindOnPath("ffmpeg").empty() || FindOnPath("ffprobe").empty()) GTEST_SKIP() << "ffmpeg is not installed";
+  const std::string dir = ::testing::TempDir() + "/render_test_video";
+  std::filesystem::remove_all(dir);
+  Scene s;
+  std::string error;
+  ASSERT_TRUE(s.Load("rig_proportional.xml", &error)) << error;
+  FrameOptions options;
+  options.dir = dir;
+  options.fps = 20;
+  options.width = 65;
+  options.height = 49;
+  auto frames = FrameWriter::Create(s.m, options, &error);
+  ASSERT_TRUE(frames) << error;
+  mj_forward(s.m, s.d);
+  while (s.d->time < 0.2 - 1e-9) {  // frames at 0, 0.05, 0.1, 0.15, 0.2 s
+    ASSERT_EQ(frames->Offer(s.d), "");
+    mj_step(s.m, s.d);
+  }
+  ASSERT_EQ(frames->Offer(s.d), "");
+  ASSERT_EQ(frames->Finish(), "");
+  ASSERT_EQ(frames->video_path(), dir + "/video.mp4");
+  const std::string probe = "ffprobe -v error -count_frames -select_streams v:0 -show_entries "
+                            "stream=codec_name,width,height,nb_read_frames -of csv=p=0 '" + dir + "/video.mp4'";
+  std::FILE* pipe = ::popen(probe.c_str(), "r");
+  ASSERT_NE(pipe, nullptr);
+  char line[200] = "";
+  const bool read = std::fgets(line, sizeof(line), pipe) != nullptr;
+  ::pclose(pipe);
+  ASSERT_TRUE(read) << probe;
+  EXPECT_EQ(std::string(line), "h264,66,50,5\n");
   std::filesystem::remove_all(dir);
 }
 
