@@ -438,28 +438,39 @@ TEST(RenderCommand, RendersALogRowAtATime) {
   std::filesystem::remove(dir + "/render_test_frame.png");
 }
 
-TEST(RenderFrameWriter, WritesOneFramePerPeriodOfSimulatedTime) {
-  const std::string dir = ::testing::TempDir() + "/render_test_frames";
+// frame options of 20 frames/s into a fresh directory
+FrameOptions TwentyFramesPerSecond(const std::string& dir, int width, int height, bool mp4) {
   std::filesystem::remove_all(dir);
-  Scene s;
-  std::string error;
-  ASSERT_TRUE(s.Load("rig_proportional.xml", &error)) << error;
   FrameOptions options;
   options.dir = dir;
   options.fps = 20;
-  options.width = 64;
-  options.height = 48;
-  options.mp4 = false;
+  options.width = width;
+  options.height = height;
+  options.mp4 = mp4;
+  return options;
+}
+
+// rig B stepped for 0.2 s at its 0.1 ms step with its valve open, each step offered to `frames`: frames
+// at 0, 0.05, 0.1, 0.15, 0.2 s
+void OfferRigBForFifthOfASecond(Scene* s, FrameWriter* frames) {
+  s->d->ctrl[mj_name2id(s->m, mjOBJ_ACTUATOR, "cyl.u")] = 3;
+  mj_forward(s->m, s->d);
+  while (s->d->time < 0.2 - 1e-9) {
+    ASSERT_EQ(frames->Offer(s->d), "");
+    mj_step(s->m, s->d);
+  }
+  ASSERT_EQ(frames->Offer(s->d), "");
+}
+
+TEST(RenderFrameWriter, WritesOneFramePerPeriodOfSimulatedTime) {
+  const std::string dir = ::testing::TempDir() + "/render_test_frames";
+  FrameOptions options = TwentyFramesPerSecond(dir, 64, 48, false);
+  Scene s;
+  std::string error;
+  ASSERT_TRUE(s.Load("rig_proportional.xml", &error)) << error;
   auto frames = FrameWriter::Create(s.m, options, &error);
   ASSERT_TRUE(frames) << error;
-  s.d->ctrl[mj_name2id(s.m, mjOBJ_ACTUATOR, "cyl.u")] = 3;
-  mj_forward(s.m, s.d);
-  // 0.2 s at 0.1 ms steps: frames at 0, 0.05, 0.1, 0.15, 0.2 s
-  while (s.d->time < 0.2 - 1e-9) {
-    ASSERT_EQ(frames->Offer(s.d), "");
-    mj_step(s.m, s.d);
-  }
-  ASSERT_EQ(frames->Offer(s.d), "");
+  ASSERT_NO_FATAL_FAILURE(OfferRigBForFifthOfASecond(&s, frames.get()));
   EXPECT_EQ(frames->frames_written(), 5);
   for (int k = 0; k < 5; ++k) EXPECT_TRUE(std::filesystem::exists(dir + "/frame_0000" + std::to_string(k) + ".png")) << k;
   EXPECT_FALSE(std::filesystem::exists(dir + "/frame_00005.png"));
@@ -479,23 +490,13 @@ TEST(RenderFrameWriter, WritesOneFramePerPeriodOfSimulatedTime) {
 TEST(RenderFrameWriter, EncodesTheFramesIntoAnMp4WithFfmpeg) {
   if (FindOnPath("ffmpeg").empty() || FindOnPath("ffprobe").empty()) GTEST_SKIP() << "ffmpeg is not installed";
   const std::string dir = ::testing::TempDir() + "/render_test_video";
-  std::filesystem::remove_all(dir);
   Scene s;
   std::string error;
   ASSERT_TRUE(s.Load("rig_proportional.xml", &error)) << error;
-  FrameOptions options;
-  options.dir = dir;
-  options.fps = 20;
-  options.width = 65;
-  options.height = 49;
-  auto frames = FrameWriter::Create(s.m, options, &error);
+  auto frames = FrameWriter::Create(s.m, TwentyFramesPerSecond(dir, 65, 49, true), &error);
   ASSERT_TRUE(frames) << error;
-  mj_forward(s.m, s.d);
-  while (s.d->time < 0.2 - 1e-9) {  // frames at 0, 0.05, 0.1, 0.15, 0.2 s
-    ASSERT_EQ(frames->Offer(s.d), "");
-    mj_step(s.m, s.d);
-  }
-  ASSERT_EQ(frames->Offer(s.d), "");
+  ASSERT_NO_FATAL_FAILURE(OfferRigBForFifthOfASecond(&s, frames.get()));
+  ASSERT_EQ(frames->frames_written(), 5);
   ASSERT_EQ(frames->Finish(), "");
   ASSERT_EQ(frames->video_path(), dir + "/video.mp4");
   const std::string probe = "ffprobe -v error -count_frames -select_streams v:0 -show_entries "
