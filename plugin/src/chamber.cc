@@ -150,14 +150,25 @@ double BackwardEulerSubstep(const ChamberModel& k, const PortOpenings& o, double
   return (lo + hi) / 2;
 }
 
-}  // namespace
+// One substep of the adaptive driver below: its length, the valve openings of its two halves
+// (sampled at their ends: backward in time) and the chamber's volume at its start, middle and end.
+struct Substep {
+  double length;
+  PortOpenings at_mid, at_next;
+  double v_start, v_mid, v_next;
+};
 
-double PhysicalPressureStep(const ChamberModel& k, const PortSchedule& ports, const VolumePath& volume,
-                            double p0, double h) {
+// The project's own adaptive driver of the implicit chamber steps: step doubling with Richardson
+// extrapolation over [0, h], segment by segment between valve switching instants (a substep never
+// crosses one). `attempt(substep)` advances its state once over the substep and twice over its halves
+// and returns the difference of the two results (Pa); the driver then either calls `accept()`, which
+// keeps the extrapolated result, or shrinks the substep and asks again. At the smallest substep,
+// h / 4096, it accepts anyway.
+template <typename Attempt, typename Accept>
+void StepDoubling(const PortSchedule& ports, const VolumePath& volume, double h, double tolerance, Attempt attempt,
+                  Accept accept) {
   const double min_substep = h / 4096;
-  double p = p0, tau = 0;
-  double substep = h;
-  // integrate segment by segment between valve switching instants
+  double tau = 0, substep = h;
   SwitchInstants ends = ports.breakpoints();
   ends.push_back(h);
   for (double end : ends) {
@@ -166,29 +177,41 @@ double PhysicalPressureStep(const ChamberModel& k, const PortSchedule& ports, co
       bool last = s >= end - tau;
       double mid = tau + s / 2, next = last ? end : tau + s;
       s = next - tau;
-      // valve openings are sampled at the substep's end (backward Euler); segments never cross a jump
-      PortOpenings at_mid = ports.At(mid - 1e-12 * h), at_next = ports.At(next - 1e-12 * h);
-      double v_start = volume.At(tau), v_mid = volume.At(mid), v_next = volume.At(next);
-      double full = BackwardEulerSubstep(k, at_next, p, v_start, v_next, s);
-      double half = BackwardEulerSubstep(k, at_mid, p, v_start, v_mid, s / 2);
-      half = BackwardEulerSubstep(k, at_next, half, v_mid, v_next, s / 2);
-      double error = std::fabs(half - full);
-      // at the smallest substep accept anyway (compare the requested size: s = next - tau may round above it)
-      if (error > k.tolerance && substep > min_substep) {
-        substep = std::max(s * std::max(0.2, 0.9 * std::sqrt(k.tolerance / error)), min_substep);
+      const Substep step{s, ports.At(mid - 1e-12 * h), ports.At(next - 1e-12 * h),
+                         volume.At(tau), volume.At(mid), volume.At(next)};
+      double error = attempt(step);
+      // compare the requested size: s = next - tau may round above it
+      if ((!std::isfinite(error) || error > tolerance) && substep > min_substep) {
+        substep = std::max(s * (std::isfinite(error) ? std::max(0.2, 0.9 * std::sqrt(tolerance / error)) : 0.2),
+                           min_substep);
         continue;
       }
-      // Richardson extrapolation of the two backward Euler results: second order
-      double p_next = 2 * half - full;
-      // keep the reachable range: between the port pressures and the sealed-chamber path
-      double p_compressed = p * std::pow(v_start / v_next, k.work_factor * k.polytropic_index);
-      Range range = ReachableRange(k, p_compressed, 0, 0);
-      p = std::clamp(p_next, range.lo, range.hi);
+      accept();
       tau = next;
-      double grow = error > 0 ? 0.9 * std::sqrt(k.tolerance / error) : 4.0;
+      double grow = error > 0 ? 0.9 * std::sqrt(tolerance / error) : 4.0;
       substep = std::max(s * std::clamp(grow, 0.2, 4.0), min_substep);
     }
   }
+}
+
+}  // namespace
+
+double PhysicalPressureStep(const ChamberModel& k, const PortSchedule& ports, const VolumePath& volume,
+                            double p0, double h) {
+  double p = p0, extrapolated = p0;
+  auto attempt = [&](const Substep& step) {
+    const double s = step.length;
+    double full = BackwardEulerSubstep(k, step.at_next, p, step.v_start, step.v_next, s);
+    double half = BackwardEulerSubstep(k, step.at_mid, p, step.v_start, step.v_mid, s / 2);
+    half = BackwardEulerSubstep(k, step.at_next, half, step.v_mid, step.v_next, s / 2);
+    // Richardson extrapolation of the two backward Euler results: second order, kept in the reachable
+    // range (between the port pressures and the sealed-chamber path)
+    double p_compressed = p * std::pow(step.v_start / step.v_next, k.work_factor * k.polytropic_index);
+    Range range = ReachableRange(k, p_compressed, 0, 0);
+    extrapolated = std::clamp(2 * half - full, range.lo, range.hi);
+    return std::fabs(half - full);
+  };
+  StepDoubling(ports, volume, h, k.tolerance, attempt, [&] { p = extrapolated; });
   return p;
 }
 
@@ -565,50 +588,36 @@ GasContent EnergySubstep(const ChamberModel& k, const PortOpenings& o, double pi
 GasState EnergyPressureStep(const ChamberModel& k, const PortSchedule& ports, const VolumePath& volume,
                             double piston_leak, double piston_area, GasState other, GasState start, double h,
                             double* supply_mass) {
-  const double min_substep = h / 4096;
   const double r = k.gas_constant, gamma = k.gamma;
-  GasState gas = start;
-  double tau = 0, substep = h, supplied = 0;
-  SwitchInstants ends = ports.breakpoints();
-  ends.push_back(h);
-  for (double end : ends) {
-    while (tau < end) {
-      double s = std::min(substep, end - tau);
-      bool last = s >= end - tau;
-      double mid = tau + s / 2, next = last ? end : tau + s;
-      s = next - tau;
-      PortOpenings at_mid = ports.At(mid - 1e-12 * h), at_next = ports.At(next - 1e-12 * h);
-      double v_start = volume.At(tau), v_mid = volume.At(mid), v_next = volume.At(next);
-      GasState full_end, half_mid, half_end;
-      GasContent full = EnergySubstep(k, at_next, piston_leak, piston_area, other, gas, v_start, v_next, s, &full_end);
-      GasContent half = EnergySubstep(k, at_mid, piston_leak, piston_area, other, gas, v_start, v_mid, s / 2, &half_mid);
-      GasContent half2 =
-          EnergySubstep(k, at_next, piston_leak, piston_area, other, half_mid, v_mid, v_next, s / 2, &half_end);
-      // the error in pressure, and in temperature weighted by p / T (Pa)
-      double error = std::max(std::fabs(half_end.p - full_end.p),
-                              std::fabs(half_end.t - full_end.t) * half_end.p / half_end.t);
-      if (!std::isfinite(error) || (error > k.tolerance && substep > min_substep)) {
-        substep = std::max(s * (std::isfinite(error) ? std::max(0.2, 0.9 * std::sqrt(k.tolerance / error)) : 0.2),
-                           min_substep);
-        continue;
-      }
-      // Richardson extrapolation in the conserved quantities (second order); a result that would leave
-      // the gas without mass or energy keeps the two half steps
-      double mass = 2 * half2.mass - full.mass, energy = 2 * half2.energy - full.energy;
-      double supplied_here = 2 * (half.supply + half2.supply) - full.supply;
-      if (mass > 0 && energy > 0) {
-        gas.p = (gamma - 1) * energy / v_next;
-        gas.t = gas.p * v_next / (r * mass);
-      } else {
-        gas = half_end;
-        supplied_here = half.supply + half2.supply;
-      }
-      supplied += supplied_here;
-      tau = next;
-      double grow = error > 0 ? 0.9 * std::sqrt(k.tolerance / error) : 4.0;
-      substep = std::max(s * std::clamp(grow, 0.2, 4.0), min_substep);
+  GasState gas = start, next_gas = start;
+  double supplied = 0, supplied_here = 0;
+  auto attempt = [&](const Substep& step) {
+    const double s = step.length;
+    GasState full_end, half_mid, half_end;
+    GasContent full = EnergySubstep(k, step.at_next, piston_leak, piston_area, other, gas, step.v_start, step.v_next, s,
+                                    &full_end);
+    GasContent half = EnergySubstep(k, step.at_mid, piston_leak, piston_area, other, gas, step.v_start, step.v_mid,
+                                    s / 2, &half_mid);
+    GasContent half2 = EnergySubstep(k, step.at_next, piston_leak, piston_area, other, half_mid, step.v_mid,
+                                     step.v_next, s / 2, &half_end);
+    // Richardson extrapolation in the conserved quantities (second order); a result that would leave
+    // the gas without mass or energy keeps the two half steps
+    double mass = 2 * half2.mass - full.mass, energy = 2 * half2.energy - full.energy;
+    supplied_here = 2 * (half.supply + half2.supply) - full.supply;
+    if (mass > 0 && energy > 0) {
+      next_gas.p = (gamma - 1) * energy / step.v_next;
+      next_gas.t = next_gas.p * step.v_next / (r * mass);
+    } else {
+      next_gas = half_end;
+      supplied_here = half.supply + half2.supply;
     }
-  }
+    // the error in pressure, and in temperature weighted by p / T (Pa)
+    return std::max(std::fabs(half_end.p - full_end.p), std::fabs(half_end.t - full_end.t) * half_end.p / half_end.t);
+  };
+  StepDoubling(ports, volume, h, k.tolerance, attempt, [&] {
+    gas = next_gas;
+    supplied += supplied_here;
+  });
   if (supply_mass) *supply_mass = supplied;
   return gas;
 }
@@ -697,40 +706,26 @@ LineSubstep LineExponentialEuler(const ChamberModel& k, const PortOpenings& o, d
 
 void LinePressureStep(const ChamberModel& k, const PortSchedule& ports, const VolumePath& volume, double line0,
                       double p0, double h, double* line1, double* p1, double* supply_mass) {
-  const double min_substep = h / 4096;
-  double line = line0, p = p0, tau = 0, substep = h, supplied = 0;
-  SwitchInstants ends = ports.breakpoints();
-  ends.push_back(h);
-  for (double end : ends) {
-    while (tau < end) {
-      double s = std::min(substep, end - tau);
-      bool last = s >= end - tau;
-      double mid = tau + s / 2, next = last ? end : tau + s;
-      s = next - tau;
-      PortOpenings at_mid = ports.At(mid - 1e-12 * h), at_next = ports.At(next - 1e-12 * h);
-      double v_start = volume.At(tau), v_mid = volume.At(mid), v_next = volume.At(next);
-      LineSubstep full = LineExponentialEuler(k, at_next, line, p, v_start, v_next, s);
-      LineSubstep half = LineExponentialEuler(k, at_mid, line, p, v_start, v_mid, s / 2);
-      LineSubstep half2 = LineExponentialEuler(k, at_next, half.line, half.p, v_mid, v_next, s / 2);
-      double error = std::max(std::fabs(half2.line - full.line), std::fabs(half2.p - full.p));
-      if (error > k.tolerance && substep > min_substep) {
-        substep = std::max(s * std::max(0.2, 0.9 * std::sqrt(k.tolerance / error)), min_substep);
-        continue;
-      }
-      // Richardson extrapolation (linear: keeps p_L V_L + p V of an isothermal chamber at fixed volume)
-      double next_line = 2 * half2.line - full.line, next_p = 2 * half2.p - full.p;
-      if (next_line > 0 && next_p > 0) {
-        line = next_line, p = next_p;
-        supplied += 2 * (half.supply + half2.supply) - full.supply;
-      } else {
-        line = half2.line, p = half2.p;
-        supplied += half.supply + half2.supply;
-      }
-      tau = next;
-      double grow = error > 0 ? 0.9 * std::sqrt(k.tolerance / error) : 4.0;
-      substep = std::max(s * std::clamp(grow, 0.2, 4.0), min_substep);
+  double line = line0, p = p0, supplied = 0;
+  double next_line = line0, next_p = p0, supplied_here = 0;
+  auto attempt = [&](const Substep& step) {
+    const double s = step.length;
+    LineSubstep full = LineExponentialEuler(k, step.at_next, line, p, step.v_start, step.v_next, s);
+    LineSubstep half = LineExponentialEuler(k, step.at_mid, line, p, step.v_start, step.v_mid, s / 2);
+    LineSubstep half2 = LineExponentialEuler(k, step.at_next, half.line, half.p, step.v_mid, step.v_next, s / 2);
+    // Richardson extrapolation (linear: keeps p_L V_L + p V of an isothermal chamber at fixed volume)
+    next_line = 2 * half2.line - full.line, next_p = 2 * half2.p - full.p;
+    supplied_here = 2 * (half.supply + half2.supply) - full.supply;
+    if (!(next_line > 0 && next_p > 0)) {
+      next_line = half2.line, next_p = half2.p;
+      supplied_here = half.supply + half2.supply;
     }
-  }
+    return std::max(std::fabs(half2.line - full.line), std::fabs(half2.p - full.p));
+  };
+  StepDoubling(ports, volume, h, k.tolerance, attempt, [&] {
+    line = next_line, p = next_p;
+    supplied += supplied_here;
+  });
   *line1 = line, *p1 = p;
   if (supply_mass) *supply_mass = supplied;
 }
