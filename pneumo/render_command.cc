@@ -15,6 +15,7 @@
 
 #include "pneumatic/pneumatic.h"
 #include "rollout.h"
+#include "model_loading.h"
 
 extern char** environ;
 
@@ -73,12 +74,9 @@ std::string SetStateFromLog(const mjModel* m, mjData* d, const log::Log& log, st
 
 std::string RenderToFile(const RenderOptions& options) {
   if (options.time && !options.log_path) return "--time needs a log (--log) to take the state from";
-  char load_error[1000] = "";
-  std::unique_ptr<mjModel, void (*)(mjModel*)> m(mj_loadXML(options.model_path.c_str(), nullptr, load_error, sizeof(load_error)),
-                                                 mj_deleteModel);
-  if (!m) return options.model_path + ": " + load_error;
   std::string error;
-  if (!Attach(m.get(), &error)) return options.model_path + ": " + error;
+  ModelPtr m = LoadAttachedModel(options.model_path, &error);
+  if (!m) return error;
   std::unique_ptr<mjData, void (*)(mjData*)> d(mj_makeData(m.get()), mj_deleteData);
   if (!d) return "mj_makeData failed";
   if (options.log_path) {

@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "pneumatic/pneumatic.h"
+#include "model_loading.h"
 
 namespace pneumatic {
 namespace {
@@ -237,12 +238,9 @@ nlohmann::json ReproduceHodgson2012(const std::string& models_dir, const std::st
     return nlohmann::json();
   };
   const std::string path = models_dir + "/rig_onoff.xml";
-  char buffer[1000] = "";
-  std::unique_ptr<mjModel, void (*)(mjModel*)> model(mj_loadXML(path.c_str(), nullptr, buffer, sizeof(buffer)),
-                                                      mj_deleteModel);
-  if (!model) return fail(path + ": " + buffer);
   std::string why;
-  if (!Attach(model.get(), &why)) return fail(path + ": " + why);
+  ModelPtr model = LoadAttachedModel(path, &why);
+  if (!model) return fail(why);
   const std::vector<CylinderInfo> cylinders = Cylinders(model.get());
   if (cylinders.size() != 1) return fail(path + ": rig A has one cylinder");
   const std::string& cyl = cylinders[0].name;

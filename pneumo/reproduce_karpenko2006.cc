@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "pneumatic/pneumatic.h"
+#include "model_loading.h"
 
 namespace pneumatic {
 namespace {
@@ -208,12 +209,9 @@ nlohmann::json ReproduceKarpenko2006(const std::string& models_dir, const std::s
     return nlohmann::json();
   };
   const std::string path = models_dir + "/rig_proportional_full.xml";
-  char buffer[1000] = "";
-  std::unique_ptr<mjModel, void (*)(mjModel*)> model(mj_loadXML(path.c_str(), nullptr, buffer, sizeof(buffer)),
-                                                      mj_deleteModel);
-  if (!model) return fail(path + ": " + buffer);
   std::string why;
-  if (!Attach(model.get(), &why)) return fail(path + ": " + why);
+  ModelPtr model = LoadAttachedModel(path, &why);
+  if (!model) return fail(why);
   if (Cylinders(model.get()).size() != 1) return fail(path + ": expected one cylinder (rig B)");
   auto parameter = [&](const char* key) {
     std::string e;
@@ -263,10 +261,8 @@ nlohmann::json ReproduceKarpenko2006(const std::string& models_dir, const std::s
   // of Fig. 5's simulation, whose plants leave both out
   {
     const std::string nominal_path = models_dir + "/rig_proportional.xml";
-    std::unique_ptr<mjModel, void (*)(mjModel*)> nominal(
-        mj_loadXML(nominal_path.c_str(), nullptr, buffer, sizeof(buffer)), mj_deleteModel);
-    if (!nominal) return fail(nominal_path + ": " + buffer);
-    if (!Attach(nominal.get(), &why)) return fail(nominal_path + ": " + why);
+    ModelPtr nominal = LoadAttachedModel(nominal_path, &why);
+    if (!nominal) return fail(why);
     double duration = 0;
     std::optional<log::Log> ref = Karpenko2006Reference("step", kKarpenko2006Step, &duration, error);
     if (!ref) return nlohmann::json();

@@ -23,6 +23,7 @@
 #include "output_file.h"
 #include "pneumatic/pneumatic.h"
 #include "render_command.h"
+#include "model_loading.h"
 
 namespace pneumatic {
 namespace {
@@ -175,12 +176,9 @@ class ProgressBar {
 
 
 int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
-  char error_text[1000] = "";
-  std::unique_ptr<mjModel, void (*)(mjModel*)> model(
-      mj_loadXML(options.model_path.c_str(), nullptr, error_text, sizeof(error_text)), mj_deleteModel);
-  if (!model) return Fail(options.model_path + ": " + error_text);
   std::string error;
-  if (!Attach(model.get(), &error)) return Fail(options.model_path + ": " + error);
+  ModelPtr model = LoadAttachedModel(options.model_path, &error);
+  if (!model) return Fail(error);
 
   ClosedLoopOptions base;
   base.controller = options.controller;

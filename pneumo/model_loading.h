@@ -1,0 +1,20 @@
+// Loading an MJCF file with the extension attached, for the commands that start from a model file.
+#ifndef PNEUMATIC_MODEL_LOADING_H_
+#define PNEUMATIC_MODEL_LOADING_H_
+
+#include <memory>
+#include <string>
+
+#include <mujoco/mujoco.h>
+
+namespace pneumatic {
+
+using ModelPtr = std::unique_ptr<mjModel, void (*)(mjModel*)>;
+
+// Loads the MJCF file at `path` and attaches the extension; null and *error ("<path>: why") when
+// MuJoCo refuses the file or the extension its configuration.
+ModelPtr LoadAttachedModel(const std::string& path, std::string* error);
+
+}  // namespace pneumatic
+
+#endif  // PNEUMATIC_MODEL_LOADING_H_
