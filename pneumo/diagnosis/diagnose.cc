@@ -18,16 +18,15 @@ std::string Fixed(const char* format, double a) {
   return text;
 }
 
-// residual series of one signal, concatenated over the windows (normalised)
-std::vector<double> SignalResiduals(const Evaluated& ev, const Measurements& meas, const GapOptions& g, int s) {
-  std::vector<double> r;
-  for (int start : g.windows.starts) {
-    for (int row = start + 1; row <= start + g.windows.horizon_rows && row < meas.rows(); ++row) {
-      const double sim = ev.prediction.simulated[s][row];
-      if (!std::isnan(sim)) r.push_back((sim - meas.Signal(s)[row]) / g.signal_scale[s]);
-    }
-  }
-  return r;
+// residual series of one signal, concatenated over the windows (normalised): its run of Evaluate's
+// residuals, which hold the signals one after the other
+std::vector<double> SignalResiduals(const Evaluated& ev, const GapOptions& g, int s) {
+  const size_t windows = g.windows.starts.size(), series = static_cast<size_t>(s) * windows;
+  if (windows == 0 || series >= ev.series_starts.size()) return {};
+  const auto from = static_cast<Eigen::Index>(ev.series_starts[series]);
+  const auto to = series + windows < ev.series_starts.size() ? static_cast<Eigen::Index>(ev.series_starts[series + windows])
+                                                              : ev.residuals.size();
+  return std::vector<double>(ev.residuals.data() + from, ev.residuals.data() + to);
 }
 
 double SideGap(const Prediction& p, const Measurements& meas, const std::vector<double>& scale, int s) {
@@ -52,7 +51,7 @@ Assessment Assess(const mjModel* m, const SensorModel& sensors, const Measuremen
   for (int s = 0; s < meas.signals(); ++s) {
     a.pneumatic_gap.push_back(a.pneumatic.error.empty() ? SideGap(a.pneumatic, meas, g.signal_scale, s) : kNotComputed);
     a.mechanical_gap.push_back(a.mechanical.error.empty() ? SideGap(a.mechanical, meas, g.signal_scale, s) : kNotComputed);
-    std::vector<double> r = SignalResiduals(a.full, meas, g, s);
+    std::vector<double> r = SignalResiduals(a.full, g, s);
     a.whiteness.push_back(LjungBox(r, 20));
     // correlation with the inputs, row by row over the predicted rows
     double best = 0;
@@ -106,7 +105,7 @@ Assessment Assess(const mjModel* m, const SensorModel& sensors, const Measuremen
 // N / tau of the normalised residuals, tau averaged over the signals
 double EffectiveSamples(const Evaluated& ev, const Measurements& meas, const GapOptions& g) {
   double tau = 0;
-  for (int s = 0; s < meas.signals(); ++s) tau += IntegratedAutocorrelationTime(SignalResiduals(ev, meas, g, s), 200);
+  for (int s = 0; s < meas.signals(); ++s) tau += IntegratedAutocorrelationTime(SignalResiduals(ev, g, s), 200);
   tau /= std::max(meas.signals(), 1);
   return static_cast<double>(ev.residuals.size()) / std::max(tau, 1.0);
 }
