@@ -97,27 +97,7 @@ bool SetKarpenkoPidParameter(KarpenkoPidParams* params, const std::string& key, 
 }
 
 bool ParseKarpenkoPidConfig(const std::string& text, KarpenkoPidParams* params, std::string* error) {
-  KarpenkoPidParams out = *params;
-  std::vector<std::pair<std::string, std::string>> pairs;
-  std::string bad;
-  if (!SplitKeyValues(text, &pairs, &bad)) {
-    if (error) *error = KeyError(bad.substr(0, bad.find('=')), "expected key=value, got '" + bad + "'");
-    return false;
-  }
-  for (auto& [key, value] : pairs) {
-    double number = 0;
-    if (!ParseNumber(value, &number)) {
-      if (error) *error = KeyError(key, "'" + value + "' is not a number");
-      return false;
-    }
-    if (!SetKarpenkoPidParameter(&out, key, number, error)) return false;
-  }
-  if (std::string e = ValidateKarpenkoPidParams(out); !e.empty()) {
-    if (error) *error = e;
-    return false;
-  }
-  *params = out;
-  return true;
+  return ParseKeyValueConfig(text, params, error, SetKarpenkoPidParameter, ValidateKarpenkoPidParams, KeyError);
 }
 
 double KarpenkoVelocityErrorEq14(double xp_dot, double xd_dot, double beta) {

@@ -52,6 +52,39 @@ inline bool ParseNumber(const std::string& value, double* number) {
   return !value.empty() && end == value.c_str() + value.size();
 }
 
+// Parses a controller's "key=value ..." text: each number goes through set(&copy, key, number, error)
+// (false: an unknown or out-of-range key, *error set), then validate(copy) checks the whole ("" or
+// the error); *params changes only when all of it is accepted. key_error(key, message) words the
+// errors of the text itself (not key=value, not a number). A value that is a word, e.g.
+// observer=sliding, may be turned into its number by `name_value` first.
+template <typename Params, typename Set, typename Validate, typename KeyError>
+bool ParseKeyValueConfig(const std::string& text, Params* params, std::string* error, Set set, Validate validate,
+                         KeyError key_error,
+                         std::string (*name_value)(const std::string& key, const std::string& value) = nullptr) {
+  Params out = *params;
+  std::vector<std::pair<std::string, std::string>> pairs;
+  std::string bad;
+  if (!SplitKeyValues(text, &pairs, &bad)) {
+    if (error) *error = key_error(bad.substr(0, bad.find('=')), "expected key=value, got '" + bad + "'");
+    return false;
+  }
+  for (auto& [key, value] : pairs) {
+    if (name_value) value = name_value(key, value);
+    double number = 0;
+    if (!ParseNumber(value, &number)) {
+      if (error) *error = key_error(key, "'" + value + "' is not a number");
+      return false;
+    }
+    if (!set(&out, key, number, error)) return false;
+  }
+  if (std::string e = validate(out); !e.empty()) {
+    if (error) *error = e;
+    return false;
+  }
+  *params = out;
+  return true;
+}
+
 }  // namespace pneumatic
 
 #endif  // PNEUMATIC_CONTROLLERS_KEY_VALUE_TEXT_H_

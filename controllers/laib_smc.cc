@@ -140,30 +140,19 @@ bool SetLaibSmcParameter(LaibSmcParams* params, const std::string& key, double v
   return false;
 }
 
+namespace {
+
+// observer=high_gain and observer=sliding, as the numbers 0 and 1
+std::string ObserverNumber(const std::string& key, const std::string& value) {
+  if (key == "observer" && value == "high_gain") return "0";
+  if (key == "observer" && value == "sliding") return "1";
+  return value;
+}
+
+}  // namespace
+
 bool ParseLaibSmcConfig(const std::string& text, LaibSmcParams* params, std::string* error) {
-  LaibSmcParams out = *params;
-  std::vector<std::pair<std::string, std::string>> pairs;
-  std::string bad;
-  if (!SplitKeyValues(text, &pairs, &bad)) {
-    if (error) *error = KeyError(bad.substr(0, bad.find('=')), "expected key=value, got '" + bad + "'");
-    return false;
-  }
-  for (auto& [key, value] : pairs) {
-    if (key == "observer" && value == "high_gain") value = "0";
-    if (key == "observer" && value == "sliding") value = "1";
-    double number = 0;
-    if (!ParseNumber(value, &number)) {
-      if (error) *error = KeyError(key, "'" + value + "' is not a number");
-      return false;
-    }
-    if (!SetLaibSmcParameter(&out, key, number, error)) return false;
-  }
-  if (std::string e = ValidateLaibSmcParams(out); !e.empty()) {
-    if (error) *error = e;
-    return false;
-  }
-  *params = out;
-  return true;
+  return ParseKeyValueConfig(text, params, error, SetLaibSmcParameter, ValidateLaibSmcParams, KeyError, ObserverNumber);
 }
 
 double LaibFlow(const LaibSmcParams& p, double pu, double pd) {

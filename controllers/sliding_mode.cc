@@ -104,27 +104,7 @@ bool SetSlidingModeParameter(SlidingModeParams* params, const std::string& key, 
 }
 
 bool ParseSlidingModeConfig(const std::string& text, SlidingModeParams* params, std::string* error) {
-  SlidingModeParams out = *params;
-  std::vector<std::pair<std::string, std::string>> pairs;
-  std::string bad;
-  if (!SplitKeyValues(text, &pairs, &bad)) {
-    if (error) *error = KeyError(bad.substr(0, bad.find('=')), "expected key=value, got '" + bad + "'");
-    return false;
-  }
-  for (auto& [key, value] : pairs) {
-    double number = 0;
-    if (!ParseNumber(value, &number)) {
-      if (error) *error = KeyError(key, "'" + value + "' is not a number");
-      return false;
-    }
-    if (!SetSlidingModeParameter(&out, key, number, error)) return false;
-  }
-  if (std::string e = ValidateSlidingModeParams(out); !e.empty()) {
-    if (error) *error = e;
-    return false;
-  }
-  *params = out;
-  return true;
+  return ParseKeyValueConfig(text, params, error, SetSlidingModeParameter, ValidateSlidingModeParams, KeyError);
 }
 
 double SlidingModeBetaEq18(double xi, double omega, double area, double p_supply, double p_exhaust, double viscous) {
