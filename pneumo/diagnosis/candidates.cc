@@ -192,7 +192,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
       // the armature is a state of each valve's command actuator: a model without delays gets it
       const double open = Parameter(m, n, "delay_open", 0), close = Parameter(m, n, "delay_close", 0);
       if (open == 0 && close == 0) {
-        c->edits.push_back({n, {}, {}, {"u1", "u2", "u3", "u4"}, {{"delay_open", "0.001"}, {"delay_close", "0.001"}}, "", {}});
+        c->edits.push_back({n, {}, {}, {"u1", "u2", "u3", "u4"}, {{"delay_open", "0.001"}, {"delay_close", "0.001"}}});
       }
       c->parameters.push_back(KeyParameter(n, "delay_open", open > 0 ? open : 1e-3, 1e-5, 0.02, 1e-3, true));
       c->parameters.push_back(KeyParameter(n, "delay_close", close > 0 ? close : 1e-3, 1e-5, 0.02, 1e-3, true));
@@ -204,7 +204,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
       // each chamber's valve voltage behind a first-order lag (its act: the lagged voltage)
       const double tau = Parameter(m, n, "spool_time_constant", 0);
       c->form = "a slower valve: first-order lag of each chamber's valve voltage";
-      if (tau == 0) c->edits.push_back({n, {}, {}, {"uP", "uN"}, {{"spool_time_constant", "0.002"}}, "", {}});
+      if (tau == 0) c->edits.push_back({n, {}, {}, {"uP", "uN"}, {{"spool_time_constant", "0.002"}}});
       c->parameters.push_back(KeyParameter(n, "spool_time_constant", tau > 0 ? tau : 0.002, 1e-4, 0.1, 2e-3, true));
     }
   });
@@ -257,7 +257,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
     } else {
       char text[32];
       std::snprintf(text, sizeof(text), "%.6g", conductance);
-      c->edits.push_back({n, {"TP", "TN"}, {}, {}, {{"thermal_model", "energy"}, {"wall_heat_conductance", text}}, "", {}});
+      c->edits.push_back({n, {"TP", "TN"}, {}, {}, {{"thermal_model", "energy"}, {"wall_heat_conductance", text}}});
     }
     c->parameters.push_back(KeyParameter(n, "wall_heat_conductance", conductance, 1e-3 * conductance, 1e3 * conductance, conductance, true));
   });
@@ -275,7 +275,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
                    const std::string& n = cyl.info.name;
                    const double v0 = Parameter(m, n, "P.dead_volume", 1e-6);
                    if (Parameter(m, n, "P.line_volume", 0) == 0) {
-                     c->edits.push_back({n, {"LP", "LN"}, {}, {}, {{"line_volume", std::to_string(v0)}, {"line_conductance", "1e-8"}}, "", {}});
+                     c->edits.push_back({n, {"LP", "LN"}, {}, {}, {{"line_volume", std::to_string(v0)}, {"line_conductance", "1e-8"}}});
                    }
                    // bounds: a line of 0.1 to 100 dead volumes; a restriction from 1e-10 kg/(s Pa) (a
                    // hair-thin tube) to 1e-7 (an orifice of about 9 mm): wider restrictions make the line

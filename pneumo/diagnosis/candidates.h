@@ -38,8 +38,8 @@ struct ModelEdit {
   // a supply reservoir that feeds the cylinder (supply_drop): "" or its name, with its keys; added
   // as <text name="pneumatic_reservoir:NAME">, its state actuator NAME.pressure on the cylinder's
   // transmission, and the cylinder's key supply=NAME
-  std::string reservoir;
-  std::vector<std::pair<std::string, std::string>> reservoir_keys;
+  std::string reservoir = "";
+  std::vector<std::pair<std::string, std::string>> reservoir_keys = {};
 };
 
 // Loads the MJCF at `path` with `edits` applied to its text (through a virtual file beside it, so
