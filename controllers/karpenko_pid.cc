@@ -29,12 +29,8 @@ std::string CheckValue(const KarpenkoPidKey& k, double value) {
   const std::string key = k.key;
   if (!std::isfinite(value)) return KeyError(key, "must be a finite number (got " + Number(value) + ")");
   if (k.flag) return value == 0 || value == 1 ? "" : KeyError(key, "must be 0 or 1 (got " + Number(value) + ")");
-  const bool low = k.min_open ? value > k.min : value >= k.min;
-  const bool high = k.max_open ? value < k.max : value <= k.max;
-  if (low && high) return "";
-  std::string range = std::string(k.min_open ? "(" : "[") + Number(k.min) + ", " +
-                      (std::isinf(k.max) ? std::string("inf") : Number(k.max)) + (k.max_open ? ")" : "]");
-  return KeyError(key, "must be in " + range + " " + k.unit + " (got " + Number(value) + ")");
+  const std::string problem = RangeProblem(value, k.min, k.max, k.min_open, k.max_open, k.unit);
+  return problem.empty() ? "" : KeyError(key, problem);
 }
 
 }  // namespace
@@ -77,23 +73,14 @@ std::string ValidateKarpenkoPidParams(const KarpenkoPidParams& params) {
 }
 
 bool SetKarpenkoPidParameter(KarpenkoPidParams* params, const std::string& key, double value, std::string* error) {
-  for (const KarpenkoPidKey& k : KarpenkoPidKeys()) {
-    if (key != k.key) continue;
-    if (std::string e = CheckValue(k, value); !e.empty()) {
-      if (error) *error = e;
-      return false;
-    }
+  auto apply = [&](const KarpenkoPidKey& k, double v) {
     if (k.number) {
-      params->*(k.number) = value;
+      params->*(k.number) = v;
     } else {
-      params->*(k.flag) = value != 0;
+      params->*(k.flag) = v != 0;
     }
-    return true;
-  }
-  std::string known;
-  for (const KarpenkoPidKey& k : KarpenkoPidKeys()) known += std::string(known.empty() ? "" : " ") + k.key;
-  if (error) *error = KeyError(key, "unknown key (keys: " + known + ")");
-  return false;
+  };
+  return SetFromKeyTable(KarpenkoPidKeys(), key, value, error, CheckValue, apply, KeyError);
 }
 
 bool ParseKarpenkoPidConfig(const std::string& text, KarpenkoPidParams* params, std::string* error) {

@@ -3,6 +3,7 @@
 #ifndef PNEUMATIC_CONTROLLERS_KEY_VALUE_TEXT_H_
 #define PNEUMATIC_CONTROLLERS_KEY_VALUE_TEXT_H_
 
+#include <cmath>
 #include <cstdlib>
 #include <sstream>
 #include <string>
@@ -50,6 +51,39 @@ inline bool ParseNumber(const std::string& value, double* number) {
   char* end = nullptr;
   *number = std::strtod(value.c_str(), &end);
   return !value.empty() && end == value.c_str() + value.size();
+}
+
+// "" if `value` lies in the range from min to max (each end excluded where flagged open), else the
+// message "must be in [min, max) UNIT (got VALUE)" for a controller's key error.
+inline std::string RangeProblem(double value, double min, double max, bool min_open, bool max_open,
+                                const std::string& unit) {
+  const bool low = min_open ? value > min : value >= min;
+  const bool high = max_open ? value < max : value <= max;
+  if (low && high) return "";
+  const std::string range = std::string(min_open ? "(" : "[") + NumberForMessage(min) + ", " +
+                            (std::isinf(max) ? std::string("inf") : NumberForMessage(max)) + (max_open ? ")" : "]");
+  return "must be in " + range + (unit.empty() ? "" : " " + unit) + " (got " + NumberForMessage(value) + ")";
+}
+
+// Sets one parameter of a controller from its key table (rows with a `key` member): check(row, value)
+// ("" or the error) then apply(row, value) on the row named `key`. False with *error set if the value
+// is refused or no row has that name (key_error words that, listing the keys).
+template <typename Row, typename Check, typename Apply, typename KeyError>
+bool SetFromKeyTable(const std::vector<Row>& rows, const std::string& key, double value, std::string* error,
+                     Check check, Apply apply, KeyError key_error) {
+  for (const Row& row : rows) {
+    if (key != row.key) continue;
+    if (std::string e = check(row, value); !e.empty()) {
+      if (error) *error = e;
+      return false;
+    }
+    apply(row, value);
+    return true;
+  }
+  std::string known;
+  for (const Row& row : rows) known += std::string(known.empty() ? "" : " ") + row.key;
+  if (error) *error = key_error(key, "unknown key (keys: " + known + ")");
+  return false;
 }
 
 // Parses a controller's "key=value ..." text: each number goes through set(&copy, key, number, error)

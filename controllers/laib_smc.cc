@@ -32,13 +32,8 @@ std::string CheckValue(const LaibSmcKey& k, double value) {
   if (!k.number && value != std::floor(value)) {
     return KeyError(key, "must be a whole number (got " + Number(value) + ")");
   }
-  const bool low = k.min_open ? value > k.min : value >= k.min;
-  const bool high = k.max_open ? value < k.max : value <= k.max;
-  if (low && high) return "";
-  std::string range = std::string(k.min_open ? "(" : "[") + Number(k.min) + ", " +
-                      (std::isinf(k.max) ? std::string("inf") : Number(k.max)) + (k.max_open ? ")" : "]");
-  return KeyError(key, "must be in " + range + (std::string(k.unit).empty() ? "" : std::string(" ") + k.unit) +
-                           " (got " + Number(value) + ")");
+  const std::string problem = RangeProblem(value, k.min, k.max, k.min_open, k.max_open, k.unit);
+  return problem.empty() ? "" : KeyError(key, problem);
 }
 
 double Sign(double v) { return v > 0 ? 1 : v < 0 ? -1 : 0; }
@@ -119,25 +114,16 @@ std::string ValidateLaibSmcParams(const LaibSmcParams& p) {
 }
 
 bool SetLaibSmcParameter(LaibSmcParams* params, const std::string& key, double value, std::string* error) {
-  for (const LaibSmcKey& k : LaibSmcKeys()) {
-    if (key != k.key) continue;
-    if (std::string e = CheckValue(k, value); !e.empty()) {
-      if (error) *error = e;
-      return false;
-    }
+  auto apply = [&](const LaibSmcKey& k, double v) {
     if (k.number) {
-      params->*(k.number) = value;
-    } else if (key == "observer") {
-      params->observer = static_cast<int>(value);
+      params->*(k.number) = v;
+    } else if (std::string(k.key) == "observer") {
+      params->observer = static_cast<int>(v);
     } else {
-      params->substeps = static_cast<int>(value);
+      params->substeps = static_cast<int>(v);
     }
-    return true;
-  }
-  std::string known;
-  for (const LaibSmcKey& k : LaibSmcKeys()) known += std::string(known.empty() ? "" : " ") + k.key;
-  if (error) *error = KeyError(key, "unknown key (keys: " + known + ")");
-  return false;
+  };
+  return SetFromKeyTable(LaibSmcKeys(), key, value, error, CheckValue, apply, KeyError);
 }
 
 namespace {

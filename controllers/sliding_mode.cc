@@ -37,12 +37,8 @@ std::string CheckValue(const SlidingModeKey& k, double value) {
   if (key == "variable_epsilon") {
     return value == 0 || value == 1 ? "" : KeyError(key, "must be 0 or 1 (got " + Number(value) + ")");
   }
-  const bool low = k.min_open ? value > k.min : value >= k.min;
-  const bool high = k.max_open ? value < k.max : value <= k.max;
-  if (low && high) return "";
-  std::string range = std::string(k.min_open ? "(" : "[") + Number(k.min) + ", " +
-                      (std::isinf(k.max) ? std::string("inf") : Number(k.max)) + (k.max_open ? ")" : "]");
-  return KeyError(key, "must be in " + range + " " + k.unit + " (got " + Number(value) + ")");
+  const std::string problem = RangeProblem(value, k.min, k.max, k.min_open, k.max_open, k.unit);
+  return problem.empty() ? "" : KeyError(key, problem);
 }
 
 }  // namespace
@@ -82,25 +78,16 @@ std::string ValidateSlidingModeParams(const SlidingModeParams& params) {
 }
 
 bool SetSlidingModeParameter(SlidingModeParams* params, const std::string& key, double value, std::string* error) {
-  for (const SlidingModeKey& k : SlidingModeKeys()) {
-    if (key != k.key) continue;
-    if (std::string e = CheckValue(k, value); !e.empty()) {
-      if (error) *error = e;
-      return false;
-    }
+  auto apply = [&](const SlidingModeKey& k, double v) {
     if (k.number) {
-      params->*(k.number) = value;
-    } else if (key == "modes") {
-      params->modes = static_cast<int>(value);
+      params->*(k.number) = v;
+    } else if (std::string(k.key) == "modes") {
+      params->modes = static_cast<int>(v);
     } else {
-      params->variable_epsilon = value != 0;
+      params->variable_epsilon = v != 0;
     }
-    return true;
-  }
-  std::string known;
-  for (const SlidingModeKey& k : SlidingModeKeys()) known += std::string(known.empty() ? "" : " ") + k.key;
-  if (error) *error = KeyError(key, "unknown key (keys: " + known + ")");
-  return false;
+  };
+  return SetFromKeyTable(SlidingModeKeys(), key, value, error, CheckValue, apply, KeyError);
 }
 
 bool ParseSlidingModeConfig(const std::string& text, SlidingModeParams* params, std::string* error) {
