@@ -109,9 +109,9 @@ struct Channel {
 // d: the inertia the piston sees when the joints move along J alone (q' = J' x' / |J|^2, kinetic
 // energy x'^2 J M J' / (2 |J|^4)); holding the other joints, rather than leaving them free (J M^-1 J'),
 // is what their own controllers do. Computed on `scratch` from the position stage alone, so that d
-// and its next step are untouched.
+// and its next step are untouched. `inertia_times_moment` is a workspace of nv numbers.
 void Mobilities(const mjModel* m, const mjData* d, mjData* scratch, const std::vector<Channel>& channels,
-                std::vector<double>* out) {
+                std::vector<mjtNum>* inertia_times_moment, std::vector<double>* out) {
   mju_copy(scratch->qpos, d->qpos, m->nq);
   mju_copy(scratch->mocap_pos, d->mocap_pos, 3 * m->nmocap);
   mju_copy(scratch->mocap_quat, d->mocap_quat, 4 * m->nmocap);
@@ -120,12 +120,12 @@ void Mobilities(const mjModel* m, const mjData* d, mjData* scratch, const std::v
   mj_tendon(m, scratch);
   mj_transmission(m, scratch);
   mj_crb(m, scratch);
-  std::vector<mjtNum> inertia_times_moment(static_cast<size_t>(m->nv));
+  inertia_times_moment->resize(static_cast<size_t>(m->nv));
   out->resize(channels.size());
   for (size_t i = 0; i < channels.size(); ++i) {
     const mjtNum* moment = scratch->actuator_moment + static_cast<size_t>(channels[i].info.chamber_actuator[0]) * m->nv;
-    mj_mulM(m, scratch, inertia_times_moment.data(), moment);
-    const double squared = mju_dot(moment, moment, m->nv), inertia = mju_dot(moment, inertia_times_moment.data(), m->nv);
+    mj_mulM(m, scratch, inertia_times_moment->data(), moment);
+    const double squared = mju_dot(moment, moment, m->nv), inertia = mju_dot(moment, inertia_times_moment->data(), m->nv);
     (*out)[i] = inertia > 0 ? squared * squared / inertia : 0;
   }
 }
@@ -253,6 +253,7 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
   std::unique_ptr<mjData, void (*)(mjData*)> scratch(mj_makeData(m), mj_deleteData);
   if (!scratch) return fail("mj_makeData failed");
   std::vector<double> mobility;
+  std::vector<mjtNum> mobility_workspace;
   std::vector<CylinderCommands> commands(channels.size());
   if (options.observer) {
     if (std::string e = options.observer(d.get()); !e.empty()) return fail(e);
@@ -260,7 +261,7 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
   const auto start = std::chrono::steady_clock::now();
   for (long k = 0; k < ticks; ++k) {
     const double t = d->time;
-    Mobilities(m, d.get(), scratch.get(), channels, &mobility);
+    Mobilities(m, d.get(), scratch.get(), channels, &mobility_workspace, &mobility);
     for (size_t i = 0; i < channels.size(); ++i) {
       Channel& ch = channels[i];
       CylinderMeasurement& y = measured[i];

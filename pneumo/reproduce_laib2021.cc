@@ -401,7 +401,8 @@ nlohmann::json ReproduceLaib2021(const std::string& models_dir, const std::strin
       {"nrmsod_signal", "duty u(t) = 0.3 sin(2 pi 10 t) for 1 s from x = 0 with both chambers at 2e5 Pa abs; x every "
                         "1 ms; the same signal on the averaged and switched models, following the sine at every 0.05 ms "
                         "model step (nrmsod_pct: the PWM compares it with the carrier as it goes, each pulse centred in "
-                        "its period; nrmsod_pct_leading_edge: the same with each pulse from its period's start), or latched at the start of every carrier period on both models "
+                        "its period; nrmsod_pct_leading_edge: the same with each pulse from its period's start), or "
+                        "latched at the start of every carrier period on both models "
                         "(nrmsod_pct_latched_duty; at 10 and 20 Hz the latch samples the sine at its zeros, so both "
                         "models stay at rest and the 0 there means nothing)"},
       {"open_loop_swing_mm", {Round(1e3 * lo, 2), Round(1e3 * hi, 2)}},

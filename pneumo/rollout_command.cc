@@ -20,10 +20,10 @@
 #include "position_stiffness.h"
 #include "sliding_mode.h"
 #include "log_csv.h"
+#include "model_loading.h"
 #include "output_file.h"
 #include "pneumatic/pneumatic.h"
 #include "render_command.h"
-#include "model_loading.h"
 
 namespace pneumatic {
 namespace {
@@ -34,9 +34,6 @@ int Fail(const std::string& message) {
   std::fprintf(stderr, "pneumo rollout: %s\n", message.c_str());
   return 1;
 }
-
-
-
 
 // The papers' controllers take "key=value ..." configurations (their key tables name units and
 // ranges); --controller-config gives them as a flat JSON object of numbers.
@@ -173,7 +170,6 @@ class ProgressBar {
 };
 
 }  // namespace
-
 
 int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
   std::string error;
