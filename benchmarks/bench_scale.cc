@@ -5,8 +5,10 @@
 // joint (limited to +-0.05 m, damping 20 N s/m), gravity 0, Euler, timestep 1 ms, no contacts
 // (every geom has contype=0 conaffinity=0). In the pneumatic model each joint is driven by a
 // rig C cylinder exactly as in models_mjcf/rig_per_chamber.xml (actuators c<i>.uP, c<i>.uN,
-// c<i>.P, c<i>.N and the same parameters): 2 x 38 = 76 chambers. The motor twin has the same
-// bodies and joints with one <motor> (gear 1) per joint and no extension.
+// c<i>.P, c<i>.N and the same parameters): 2 x 38 = 76 chambers. The same model with
+// commands=chambers has no c<i>.uP, c<i>.uN: the voltages are the ctrl of c<i>.P, c<i>.N (two
+// actuators per cylinder; same physics, bit for bit: tests/command_place_test). The motor twin
+// has the same bodies and joints with one <motor> (gear 1) per joint and no extension.
 //
 // Commands, set at the start of each 10 ms control period and held: s_i = sin(2 pi f_i t +
 // phi_i) with f_i spread over 0.5..3 Hz. Motor i gets 1 N * s_i. Cylinder i gets uP = 5 + d_i,
@@ -19,7 +21,7 @@
 // Speed: each model is stepped for 0.2 s of wall time (warm-up, not counted), then for about
 // 1 s; the time per mj_step is wall time / steps. Five runs, alternating the two models; the
 // median is reported. The extension's cost per chamber step is
-// (us per step, pneumatic - us per step, motor twin) / 76.
+// (us per step, pneumatic - us per step, motor twin) / 76, for each actuator layout.
 //
 // Threads: 1 and 2 threads step their own mjData of the same mjModel at the same time, each
 // for 0.2 s of warm-up then about 1 s; the total steps/s is the sum over the threads. Median of
@@ -85,8 +87,16 @@ std::string Name(const char* prefix, int i, const char* suffix = "") {
   return prefix + std::to_string(i) + suffix;
 }
 
-// MJCF of `cylinders` sliding bodies, each driven by a rig C cylinder (pneumatic) or a motor
-std::string ModelXml(int cylinders = kDefaultCylinders, bool pneumatic = true) {
+// how each joint is driven
+enum class Layout {
+  kCommandActuators,  // a rig C cylinder: c<i>.uP, c<i>.uN (valve voltages), c<i>.P, c<i>.N
+  kCommandsInChambers,  // the same with commands=chambers: c<i>.P, c<i>.N, whose ctrl are the voltages
+  kMotors,            // the twin: one motor
+};
+
+// MJCF of `cylinders` sliding bodies, each driven as `layout` says
+std::string ModelXml(int cylinders, Layout layout) {
+  const bool pneumatic = layout != Layout::kMotors, in_chambers = layout == Layout::kCommandsInChambers;
   std::string xml = "<mujoco model=\"scale\">\n";
   xml += "  <option timestep=\"" + std::to_string(kTimestep) + "\" integrator=\"Euler\" gravity=\"0 0 0\"/>\n";
   if (pneumatic) xml += "  <size nuser_actuator=\"" + std::to_string(pneumatic::ActuatorUserSize()) + "\"/>\n";
@@ -111,6 +121,7 @@ std::string ModelXml(int cylinders = kDefaultCylinders, bool pneumatic = true) {
       continue;
     }
     for (const char* role : {".uP", ".uN"}) {
+      if (in_chambers) break;
       xml += "    <general name=\"" + Name("c", i, role) + "\" " + joint +
              " gaintype=\"user\" ctrllimited=\"true\" ctrlrange=\"0 10\"/>\n";
     }
@@ -118,7 +129,8 @@ std::string ModelXml(int cylinders = kDefaultCylinders, bool pneumatic = true) {
   for (int i = 0; pneumatic && i < cylinders; ++i) {
     for (const char* role : {".P", ".N"}) {
       xml += "    <general name=\"" + Name("c", i, role) + "\" joint=\"" + Name("x", i) +
-             "\" dyntype=\"user\" gaintype=\"user\"/>\n";
+             "\" dyntype=\"user\" gaintype=\"user\"" + (in_chambers ? " ctrllimited=\"true\" ctrlrange=\"0 10\"" : "") +
+             "/>\n";
     }
   }
   xml += "  </actuator>\n";
@@ -127,7 +139,8 @@ std::string ModelXml(int cylinders = kDefaultCylinders, bool pneumatic = true) {
   if (pneumatic) {
     xml += "  <custom>\n";
     for (int i = 0; i < cylinders; ++i) {
-      xml += "    <text name=\"" + Name("pneumatic:c", i) + "\" data=\"" + kRigC + "\"/>\n";
+      xml += "    <text name=\"" + Name("pneumatic:c", i) + "\" data=\"" + kRigC +
+             (in_chambers ? " commands=chambers" : "") + "\"/>\n";
     }
     xml += "  </custom>\n";
   }
@@ -170,13 +183,15 @@ struct Drive {
   std::vector<std::vector<double>> excitation;  // [period][cylinder]: s_i at the period's start
 };
 
-// the actuators, joints and excitation table of a model
+// the actuators, joints and excitation table of a model (an attached one, if pneumatic)
 Drive MakeDrive(const char* label, mjModel* m, int cylinders, bool pneumatic) {
   Drive drive{label, m, pneumatic ? 2 * cylinders : 0, {}, {}, {}, {}};
+  std::vector<pneumatic::CylinderInfo> infos = pneumatic ? pneumatic::Cylinders(m) : std::vector<pneumatic::CylinderInfo>{};
   for (int i = 0; i < cylinders; ++i) {
     if (pneumatic) {
-      drive.actuators.push_back(mj_name2id(m, mjOBJ_ACTUATOR, Name("c", i, ".uP").c_str()));
-      drive.actuators.push_back(mj_name2id(m, mjOBJ_ACTUATOR, Name("c", i, ".uN").c_str()));
+      // uP and uN, wherever the layout keeps them
+      auto info = std::find_if(infos.begin(), infos.end(), [&](const auto& c) { return c.name == Name("c", i); });
+      for (const auto& [signal, id] : info->command_actuators) drive.actuators.push_back(id);
     } else {
       drive.actuators.push_back(mj_name2id(m, mjOBJ_ACTUATOR, Name("m", i).c_str()));
     }
@@ -361,38 +376,45 @@ Check RunCheck(const Drive& drive) {
 
 //---------------------------------- output ---------------------------------------------------------
 
-// the speed table; fills *warnings
-void PrintSpeed(const Drive& pneu, const Drive& motor, int cylinders, long* warnings) {
-  // alternate the two models so that a slow phase of the machine hits both alike
-  std::vector<double> us_pneu, us_motor;
+// the speed table of the pneumatic models against the twin; fills *warnings
+void PrintSpeed(const std::vector<const Drive*>& pneumatic, const Drive& motor, int cylinders, long* warnings) {
+  // alternate the models so that a slow phase of the machine hits all alike
+  std::vector<std::vector<double>> us_pneu(pneumatic.size());
+  std::vector<double> us_motor;
   for (int r = 0; r < kSpeedRepeats; ++r) {
     std::fprintf(stderr, "speed: run %d/%d\n", r + 1, kSpeedRepeats);
-    us_pneu.push_back(MicrosecondsPerStep(pneu, warnings));
+    for (size_t i = 0; i < pneumatic.size(); ++i) us_pneu[i].push_back(MicrosecondsPerStep(*pneumatic[i], warnings));
     us_motor.push_back(MicrosecondsPerStep(motor, warnings));
   }
-  double p = Median(us_pneu), q = Median(us_motor);
-  std::printf("### %d chambers vs the motor twin\n\n", pneu.chambers);
+  const int chambers = pneumatic[0]->chambers;
+  double q = Median(us_motor);
+  std::printf("### %d chambers vs the motor twin\n\n", chambers);
   std::printf("%d bodies on slide joints (timestep 1 ms, Euler, no contacts), each driven by a rig C cylinder "
-              "(%d chambers) or, in the twin, by a motor. Commands held 10 ms: s_i = sin(2 pi f_i t + phi_i), "
-              "f_i = 0.5..3 Hz; valves uP,N = 5 +- (%g V s_i - %g V/m x_i - %g V s/m v_i), motors %g N s_i; "
-              "reset every %g s. Median of %d alternating runs of about %.0f s after a %.1f s warm-up.\n\n",
-              cylinders, pneu.chambers, kValveAmplitude, kCentringPosition, kCentringVelocity, kMotorAmplitude,
+              "(%d chambers) or, in the twin, by a motor. The cylinders' valve voltages are their own actuators "
+              "(uP, uN: four actuators per cylinder) or, with commands=chambers, the ctrl of the chamber "
+              "actuators (two per cylinder; the same physics bit for bit). Commands held 10 ms: s_i = sin(2 pi "
+              "f_i t + phi_i), f_i = 0.5..3 Hz; valves uP,N = 5 +- (%g V s_i - %g V/m x_i - %g V s/m v_i), motors "
+              "%g N s_i; reset every %g s. Median of %d alternating runs of about %.0f s after a %.1f s warm-up.\n\n",
+              cylinders, chambers, kValveAmplitude, kCentringPosition, kCentringVelocity, kMotorAmplitude,
               kResetSeconds, kSpeedRepeats, kMeasureSeconds, kWarmupSeconds);
-  std::printf("| model | us per step | steps/s |\n|---|---:|---:|\n");
-  std::printf("| %s | %.2f | %.0f |\n", pneu.label, p, 1e6 / p);
-  std::printf("| %s | %.2f | %.0f |\n\n", motor.label, q, 1e6 / q);
-  std::printf("Ratio pneumatic / motor twin: %.2f. Extension cost per chamber step: (%.2f - %.2f) / %d = "
-              "**%.3f us**.\n\n", p / q, p, q, pneu.chambers, (p - q) / pneu.chambers);
+  std::printf("| model | us per step | steps/s | ratio to the twin | extension cost per chamber step (us) |\n"
+              "|---|---:|---:|---:|---:|\n");
+  for (size_t i = 0; i < pneumatic.size(); ++i) {
+    double p = Median(us_pneu[i]);
+    std::printf("| %s | %.2f | %.0f | %.2f | (%.2f - %.2f) / %d = **%.3f** |\n", pneumatic[i]->label, p, 1e6 / p,
+                p / q, p, q, chambers, (p - q) / chambers);
+  }
+  std::printf("| %s | %.2f | %.0f | 1 | |\n\n", motor.label, q, 1e6 / q);
 }
 
 // the threads table; fills *warnings
-void PrintThreads(const Drive& pneu, const Drive& motor, long* warnings) {
+void PrintThreads(const std::vector<const Drive*>& drives, long* warnings) {
   std::printf("### Threads\n\n");
   std::printf("Each thread steps its own mjData of the same mjModel for about %.0f s after a %.1f s warm-up; "
               "steps/s is the total over the threads, median of %d runs.\n\n",
               kMeasureSeconds, kWarmupSeconds, kThreadRepeats);
   std::printf("| model | 1 thread (steps/s) | 2 threads (steps/s) | speed-up |\n|---|---:|---:|---:|\n");
-  for (const Drive* drive : {&pneu, &motor}) {
+  for (const Drive* drive : drives) {
     double rate[2];
     for (int threads = 1; threads <= 2; ++threads) {
       std::vector<double> runs;
@@ -431,43 +453,45 @@ int main(int argc, char** argv) {
     return 1;
   }
 
-  // both models, the pneumatic one attached to the extension
+  // the models, the pneumatic ones attached to the extension
   std::string error;
-  mjModel* m_pneu = LoadXml(ModelXml(cylinders, true), &error);
-  mjModel* m_motor = m_pneu ? LoadXml(ModelXml(cylinders, false), &error) : nullptr;
-  if (!m_motor) {
+  mjModel* m_pneu = LoadXml(ModelXml(cylinders, Layout::kCommandActuators), &error);
+  mjModel* m_compact = m_pneu ? LoadXml(ModelXml(cylinders, Layout::kCommandsInChambers), &error) : nullptr;
+  mjModel* m_motor = m_compact ? LoadXml(ModelXml(cylinders, Layout::kMotors), &error) : nullptr;
+  if (!m_motor || !pneumatic::Attach(m_pneu, &error) || !pneumatic::Attach(m_compact, &error)) {
     std::fprintf(stderr, "error: %s\n", error.c_str());
     return 1;
   }
-  if (!pneumatic::Attach(m_pneu, &error)) {
-    std::fprintf(stderr, "error: %s\n", error.c_str());
-    return 1;
-  }
-  std::string pneu_label = "pneumatic (" + std::to_string(cylinders) + " rig C cylinders)";
-  std::string motor_label = "motor twin (" + std::to_string(cylinders) + " motors)";
+  std::string n = std::to_string(cylinders);
+  std::string pneu_label = "pneumatic (" + n + " rig C cylinders, " + std::to_string(m_pneu->nu) + " actuators)";
+  std::string compact_label = "pneumatic, commands=chambers (" + n + " rig C cylinders, " +
+                              std::to_string(m_compact->nu) + " actuators)";
+  std::string motor_label = "motor twin (" + n + " motors)";
   Drive pneu = MakeDrive(pneu_label.c_str(), m_pneu, cylinders, true);
+  Drive compact = MakeDrive(compact_label.c_str(), m_compact, cylinders, true);
   Drive motor = MakeDrive(motor_label.c_str(), m_motor, cylinders, false);
 
   // figures
   pneumatic::benchmarks::PrintMachine(PNEUMATIC_BUILD_TYPE);
   long warnings = 0;
-  PrintSpeed(pneu, motor, cylinders, &warnings);
-  PrintThreads(pneu, motor, &warnings);
+  PrintSpeed({&pneu, &compact}, motor, cylinders, &warnings);
+  PrintThreads({&pneu, &compact, &motor}, &warnings);
 
   // the simulation stayed sane and moved the pistons
   std::fprintf(stderr, "check\n");
-  Check check_pneu = RunCheck(pneu), check_motor = RunCheck(motor);
+  Check check_pneu = RunCheck(pneu), check_compact = RunCheck(compact), check_motor = RunCheck(motor);
   std::printf("### Check\n\n");
   std::printf("One untimed reset period (%.0f s) of each model, checked after every step.\n\n", kResetSeconds);
   PrintCheck(pneu, check_pneu);
+  PrintCheck(compact, check_compact);
   PrintCheck(motor, check_motor);
   std::printf("* timed runs: %ld MuJoCo warnings (d->warning), %d reported through mju_user_warning.\n",
               warnings, mujoco_warnings);
 
-  pneumatic::Detach(m_pneu);
-  mj_deleteModel(m_pneu);
-  mj_deleteModel(m_motor);
-  bool ok = check_pneu.finite && check_motor.finite && check_pneu.warnings == 0 && check_motor.warnings == 0 &&
-            warnings == 0 && check_pneu.p_min >= check_pneu.p_low && check_pneu.p_max <= check_pneu.p_high;
+  for (mjModel* m : {m_pneu, m_compact}) pneumatic::Detach(m);
+  for (mjModel* m : {m_pneu, m_compact, m_motor}) mj_deleteModel(m);
+  bool ok = warnings == 0;
+  for (const Check* c : {&check_pneu, &check_compact, &check_motor}) ok = ok && c->finite && c->warnings == 0;
+  for (const Check* c : {&check_pneu, &check_compact}) ok = ok && c->p_min >= c->p_low && c->p_max <= c->p_high;
   return ok ? 0 : 1;
 }

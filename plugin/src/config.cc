@@ -108,6 +108,8 @@ const Param kParams[] = {
      "PWM carrier frequency; 0 = the averaged model of paper 003 eq. 14", CYL(pwm_frequency)},
     {"pwm_alignment", Scope::kCylinder, AppliesTo::kPwm, "", "center", "center leading", 0, 0, false, false,
      "where each pulse of switched PWM sits in its carrier period: centred on the period's middle (symmetric PWM; its pulse has the same centroid as the averaged model's spread-out opening, so eq. 14 matches it to second order in the period) or from the period's start (edge-aligned PWM, as many microcontroller timers do by default; it shifts each pulse by up to half a period against eq. 14)", nullptr},
+    {"commands", Scope::kCylinder, AppliesTo::kAll, "", "actuators", "actuators chambers", 0, 0, false, false,
+     "where the valve commands are: their own actuators (<name>.uP and <name>.uN, <name>.u, <name>.duty, <name>.u1..u4), or the ctrl of the chamber actuators (uP, u and duty in <name>.P, uN in <name>.N): two actuators per cylinder instead of three or four, which saves MuJoCo's work on each actuator (a dense moment row each). chambers takes valves without state (no spool_time_constant, no delay_open or delay_close) and at most two commands (not valve=onoff with input=valves)", nullptr},
     {"thermal_model", Scope::kCylinder, AppliesTo::kAll, "", "polytropic", "polytropic energy", 0, 0, false, false,
      "gas temperature: polytropic chambers at a fixed temperature (default), or the energy equation of an open chamber with heat exchange with the wall at temperature (Richer and Hurmuzlu 2000; state actuators <name>.TP, <name>.TN; needs wall_heat_conductance)", nullptr},
     {"coulomb_friction", Scope::kCylinder, AppliesTo::kAll, "N (N m)", "none", nullptr, 0, 1e6, false, false,
@@ -409,6 +411,10 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
     if (!parser.Choice(*FindParam("pwm_alignment"), "pwm_alignment", text_value, &index)) return std::nullopt;
     c.pwm_alignment = static_cast<PwmAlignment>(index);
   }
+  if (lookup(raw.cylinder, *FindParam("commands"), &text_value)) {
+    if (!parser.Choice(*FindParam("commands"), "commands", text_value, &index)) return std::nullopt;
+    c.commands = static_cast<CommandPlace>(index);
+  }
   if (lookup(raw.cylinder, *FindParam("step"), &text_value)) {
     if (!parser.Choice(*FindParam("step"), "step", text_value, &index)) return std::nullopt;
     c.step = static_cast<ChamberStep>(index);
@@ -555,6 +561,21 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
     }
   }
   bool delays = c.delay_open > 0 || c.delay_close > 0;
+  if (c.commands == CommandPlace::kChambers) {
+    // a chamber actuator has one ctrl and one act: room for one command, none for a valve state
+    if (c.valve == ValveKind::kOnOff && c.input == CommandInput::kValves) {
+      return fail("commands", "chambers holds two commands, one per chamber actuator; valve=onoff with input=valves has "
+                              "four (u1..u4): use input=pwm or commands=actuators");
+    }
+    if (delays) {
+      return fail(c.delay_open > 0 ? "delay_open" : "delay_close",
+                  "valve delays keep each armature in the act of its command actuator: use commands=actuators");
+    }
+    if (c.valve != ValveKind::kOnOff && c.spool_time_constant > 0) {
+      return fail("spool_time_constant", "a spool lag keeps its state in the act of the command actuator: set "
+                                         "spool_time_constant=0 or use commands=actuators");
+    }
+  }
   if (c.input == CommandInput::kPwm && delays && c.pwm_frequency == 0) {
     return fail(c.delay_open > 0 ? "delay_open" : "delay_close",
                 "valve delays need switched PWM (pwm_frequency > 0), the averaged model has no switching instants");
@@ -606,6 +627,7 @@ int ChoiceIndex(const CylinderConfig& c, const std::string& key, int k) {
   if (key == "valve") return static_cast<int>(c.valve);
   if (key == "input") return static_cast<int>(c.input);
   if (key == "pwm_alignment") return static_cast<int>(c.pwm_alignment);
+  if (key == "commands") return static_cast<int>(c.commands);
   if (key == "step") return static_cast<int>(c.step);
   if (key == "friction_model") return static_cast<int>(c.friction_model);
   if (key == "thermal_model") return static_cast<int>(c.thermal_model);
@@ -617,6 +639,7 @@ void SetChoiceIndex(CylinderConfig* c, const std::string& key, int k, int index)
   if (key == "valve") c->valve = static_cast<ValveKind>(index);
   if (key == "input") c->input = static_cast<CommandInput>(index);
   if (key == "pwm_alignment") c->pwm_alignment = static_cast<PwmAlignment>(index);
+  if (key == "commands") c->commands = static_cast<CommandPlace>(index);
   if (key == "step") c->step = static_cast<ChamberStep>(index);
   if (key == "friction_model") c->friction_model = static_cast<FrictionModel>(index);
   if (key == "thermal_model") c->thermal_model = static_cast<ThermalModel>(index);

@@ -30,6 +30,12 @@ enum class PwmAlignment {
   kLeading,  // from the period's start (edge-aligned, sawtooth-carrier PWM)
 };
 
+// where a cylinder's valve commands are read from
+enum class CommandPlace {
+  kActuators,  // their own actuators, "<name>.uP", "<name>.uN", "<name>.u", "<name>.duty", "<name>.u1".."u4"
+  kChambers,   // the ctrl of the chamber actuators: uP, u and duty in "<name>.P", uN in "<name>.N"
+};
+
 // mass flow through one valve port
 enum class FlowLaw {
   kIso6358,    // sonic conductance and critical ratio (paper 002 eq. 4, paper 003 eq. 3)
@@ -128,6 +134,7 @@ struct CylinderConfig {
   double delay_close = 0;      // s, closing delay (paper 002: 0.2 ms)
   double pwm_frequency = 0;    // Hz; 0 with input=pwm: the averaged model of paper 003 eq. 14
   PwmAlignment pwm_alignment = PwmAlignment::kCenter;
+  CommandPlace commands = CommandPlace::kActuators;
   // seal friction on top of the joint's (or tendon's) frictionloss
   std::optional<double> coulomb_friction;  // N (N m): sliding friction level
   double stribeck_velocity = 0;            // m/s (rad/s)

@@ -118,13 +118,17 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
   }
 
   // valve commands and states
+  const bool in_chambers = cfg.commands == CommandPlace::kChambers;
   for (const RoleSpec* r : commands) {
     std::string full = name + "." + r->suffix;
-    int id = mj_name2id(m, mjOBJ_ACTUATOR, full.c_str());
+    // commands=chambers (no valve states, at most two commands: the parser sees to it): command i is
+    // the ctrl of chamber i's actuator (uP, u and duty: P; uN: N)
+    int id = in_chambers ? c.info_.chamber_actuator[r->index] : mj_name2id(m, mjOBJ_ACTUATOR, full.c_str());
     if (id < 0) return missing(*r, r->missing);
     c.command_id_[r->index] = id;
     c.info_.command_actuators.push_back({r->suffix, id});
   }
+  if (in_chambers) commands.clear();  // held by the chambers, whose checks are above
   for (const RoleSpec* r : states) {
     std::string full = name + "." + r->suffix;
     int id = mj_name2id(m, mjOBJ_ACTUATOR, full.c_str());
@@ -228,7 +232,11 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
     bool known = std::any_of(c.actuators_.begin(), c.actuators_.end(), [&](const auto& a) { return a.first == id; });
     if (known) continue;
     std::string why = "has no role in this cylinder (valve and input decide the command actuators)";
-    if (const RoleSpec* r = FindRole(RoleOwner::kCylinder, actuator.substr(prefix.size()))) {
+    const RoleSpec* r = FindRole(RoleOwner::kCylinder, actuator.substr(prefix.size()));
+    if (r && in_chambers && r->role == Role::kCommand && r->command(&cfg)) {
+      why = "commands=chambers reads this command from the ctrl of '" + name + (r->index == 0 ? ".P" : ".N") +
+            "': remove this actuator, or set commands=actuators";
+    } else if (r) {
       why += ": role '" + std::string(r->suffix) + "' is used with " + r->required_by;
     }
     return fail(actuator, why);

@@ -88,7 +88,8 @@ struct CylinderInfo {
   std::string name;                    // "<cylinder>"
   int chamber_actuator[2] = {-1, -1};  // "<name>.P", "<name>.N": act = p - p_atm (Pa)
   // command actuators by log signal name ("u", "uP", "uN", "u1".."u4", "duty"):
-  // their ctrl is the command of log_format.md
+  // their ctrl is the command of log_format.md (with commands=chambers these are the
+  // chamber actuators themselves: write the commands here, not by actuator name)
   std::vector<std::pair<std::string, int>> command_actuators;
   double p_atm = 0;       // Pa abs: the reference of the gauge activations
   double p_supply = 0;    // Pa abs
