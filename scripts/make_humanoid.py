@@ -511,7 +511,8 @@ def worldbody(rows, cyls, with_sites):
 
 
 def custom_text(c, fit, model):
-    keys = ["valve=proportional_per_chamber", "stroke=%s" % num(c.stroke), "x_mid=%s" % num(c.x_mid)]
+    # commands=chambers: uP and uN are the ctrl of <name>.P and <name>.N (two actuators per cylinder, not four)
+    keys = ["valve=proportional_per_chamber commands=chambers", "stroke=%s" % num(c.stroke), "x_mid=%s" % num(c.x_mid)]
     keys.append("P.area=%s N.area=%s dead_volume=%s" % (num(c.area_p), num(c.area_n), num(c.dead)))
     keys.append("p_supply=%s p_exhaust=%s temperature=%s gas_constant=%s" %
                 (num(P_SUPPLY), num(P_EXHAUST), num(TEMPERATURE), num(GAS_CONSTANT)))
@@ -551,17 +552,13 @@ def write_pneumatic(rows, cyls, mass, fit, model):
             lines.append('    <spatial name="%s"><site site="%s.cap"/><site site="%s.rod"/></spatial>' % (c.name, c.name, c.name))
     lines.append("  </tendon>")
     lines.append("  <actuator>")
-    lines.append("    <!-- valve voltages uP, uN (V; MPYE input 0..10 V, paper 000 used 3..7 V); MuJoCo 2.2 wants")
-    lines.append("         actuators without state before those with state, so all commands come first -->")
-    for c in cyls.values():
-        t = 'tendon="%s"' % c.name if c.kind == "dsnu" else 'joint="%s"' % c.joint
-        for role in ("uP", "uN"):
-            lines.append('    <general name="%s.%s" %s gaintype="user" ctrllimited="true" ctrlrange="0 10"/>' % (c.name, role, t))
-    lines.append("    <!-- chambers: act = p - p_atm (Pa); P extends the cylinder (x grows) -->")
+    lines.append("    <!-- chambers: act = p - p_atm (Pa); P extends the cylinder (x grows). commands=chambers: the")
+    lines.append("         ctrl of <name>.P and <name>.N are the voltages uP and uN of their valves (V; MPYE input")
+    lines.append("         0..10 V, paper 000 used 3..7 V), so each cylinder is two actuators, not four -->")
     for c in cyls.values():
         t = 'tendon="%s"' % c.name if c.kind == "dsnu" else 'joint="%s"' % c.joint
         for role in ("P", "N"):
-            lines.append('    <general name="%s.%s" %s dyntype="user" gaintype="user"/>' % (c.name, role, t))
+            lines.append('    <general name="%s.%s" %s dyntype="user" gaintype="user" ctrllimited="true" ctrlrange="0 10"/>' % (c.name, role, t))
     lines.append("  </actuator>")
     lines.append("  <custom>")
     for c in cyls.values():
