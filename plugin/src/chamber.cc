@@ -335,12 +335,6 @@ void ApplyMatrixFunction(int n, double (*phi)(double), double (*phi_slope)(doubl
 // the linearized step holds where the flow's slope changes by at most this fraction over the step
 constexpr double kMaxSlopeChange = 0.25;
 
-// a chamber's pressure kept within what it can reach from its compressed pressure
-double KeepReachable(const ChamberModel k[], int i, const double compressed[], double piston_leak, double p) {
-  Range range = ReachableRange(k[i], compressed[i], piston_leak, piston_leak > 0 ? compressed[1 - i] : 0);
-  return std::clamp(p, range.lo, range.hi);
-}
-
 }  // namespace
 
 bool LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* ports[], const VolumePath volume[],
@@ -375,7 +369,12 @@ bool LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* p
   } else {
     ApplyMatrixFunction(n, Phi1, Phi1Slope, start, h, start.rate, change);
   }
-  for (int i = 0; i < n; ++i) predicted[i] = KeepReachable(k, i, compressed, piston_leak, p0[i] + h * change[i]);
+  // each chamber's pressure kept within what it can reach from its compressed pressure
+  Range reachable[2];
+  for (int i = 0; i < n; ++i) {
+    reachable[i] = ReachableRange(k[i], compressed[i], piston_leak, piston_leak > 0 ? compressed[1 - i] : 0);
+    predicted[i] = std::clamp(p0[i] + h * change[i], reachable[i].lo, reachable[i].hi);
+  }
   // second-order correction (ETD2RK, Cox and Matthews 2002): h phi2(B h) times the change of the
   // remainder N = rate - B p over the step, valve openings moving from their start to their end
   // value (a spool)
@@ -399,7 +398,7 @@ bool LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* p
     double b_start = compression[i] - start.b[i][i], b_end = compression[i] - at_end.b[i][i];
     if (!(error <= tolerance) || std::fabs(b_end - b_start) > kMaxSlopeChange * std::max(b_start, b_end)) return false;
   }
-  for (int i = 0; i < n; ++i) p1[i] = KeepReachable(k, i, compressed, piston_leak, predicted[i] + h * correction[i]);
+  for (int i = 0; i < n; ++i) p1[i] = std::clamp(predicted[i] + h * correction[i], reachable[i].lo, reachable[i].hi);
   return true;
 }
 

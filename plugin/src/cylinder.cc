@@ -1,7 +1,9 @@
 #include "cylinder.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <optional>
 
 namespace pneumatic {
 namespace {
@@ -325,12 +327,14 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
     ProportionalSignal(config_, ch, valves).DelayState(h, end);
     for (int j = 0; j < 2; ++j) ActDot(m, d, extra_state_id_[DelaySlot(ch) + j]) = (end[j] - valves.delay[ch][j]) / h;
   }
-  // the chambers' models; a reservoir's pressure at the start of the step on the supply ports
+  // the chambers' models; a reservoir's pressure at the start of the step on the supply ports (copies
+  // made only then: a ChamberModel is large, and the common case needs none)
   const ChamberModel* models = chamber_model_;
-  ChamberModel fed[2];
+  std::optional<std::array<ChamberModel, 2>> fed;
   if (supply_pressure) {
-    for (int k = 0; k < 2; ++k) fed[k] = chamber_model_[k], fed[k].p_supply = *supply_pressure;
-    models = fed;
+    fed.emplace(std::array<ChamberModel, 2>{chamber_model_[0], chamber_model_[1]});
+    for (ChamberModel& k : *fed) k.p_supply = *supply_pressure;
+    models = fed->data();
   }
 
   // act_dot of each chamber: (p(t + h) - p(t)) / h, or dp/dt for step=explicit
@@ -411,8 +415,10 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
     // the chambers' steps (Strang splitting); the chambers step from pin, what the first half leaves
     const double orifice = physical[0] && physical[1] && config_.step != ChamberStep::kExplicit ? config_.piston_leak_area : 0;
     double pin[2] = {p0[0], p0[1]};
-    const double v_start_both[2] = {volume[0].At(0), volume[1].At(0)}, v_end_both[2] = {volume[0].At(h), volume[1].At(h)};
-    if (orifice > 0) PistonOrificeExchange(models, v_start_both, orifice, h / 2, pin);
+    if (orifice > 0) {
+      const double v_start_both[2] = {volume[0].At(0), volume[1].At(0)};
+      PistonOrificeExchange(models, v_start_both, orifice, h / 2, pin);
+    }
     if (config_.step == ChamberStep::kLinearized) {
       const PortSchedule* schedules[2] = {&ports[0], &ports[1]};
       if (leak > 0 && physical[0] && physical[1]) {
@@ -450,7 +456,10 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
       if (coupled) PistonLeakExchange(models, v_end, leak, h / 2, p1);
     }
     const double p1_chambers[2] = {p1[0], p1[1]};  // before the orifice's second half
-    if (orifice > 0) PistonOrificeExchange(models, v_end_both, orifice, h / 2, p1);
+    if (orifice > 0) {
+      const double v_end_both[2] = {volume[0].At(h), volume[1].At(h)};
+      PistonOrificeExchange(models, v_end_both, orifice, h / 2, p1);
+    }
     for (int k = 0; k < 2; ++k) {
       if (physical[k] && config_.step != ChamberStep::kExplicit) rate[k] = (p1[k] - p0[k]) / h;
     }

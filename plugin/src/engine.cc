@@ -42,7 +42,8 @@ namespace {
 
 constexpr char kConfigPrefix[] = "pneumatic:";
 
-// actuator_user slots: [0] tag, [1] fingerprint, then the packed configuration ("<name>.P" only)
+// actuator_user slots: [0] tag, [1] fingerprint, then the packed configuration ("<name>.P" only); the
+// last slot (LeaderSlot) says which actuator leads the pass
 constexpr int kTagSlot = 0, kFingerprintSlot = 1, kConfigSlot = 2;
 // tags: arbitrary values no model would hold by chance
 constexpr double kMemberTag = 7.3612e-291;  // an actuator of a cylinder
@@ -53,6 +54,8 @@ constexpr char kReservoirPrefix[] = "pneumatic_reservoir:";
 
 // the slot of "<cylinder>.P"'s user data that holds its supply reservoir's actuator id plus one (0: none)
 int SupplySlot() { return kConfigSlot + PackedConfigSize(); }
+// the slot of every stored actuator's user data that is 1 for the model's leader, 0 for the others
+int LeaderSlot() { return ActuatorUserSize() - 1; }
 
 // everything a step needs, decoded from a model
 struct CompiledModel {
@@ -77,8 +80,10 @@ Previous& GetPrevious() {
   return previous;
 }
 
+// an actuator's user data, if it has room for what the extension stores (StoreModel sees to it)
 const double* UserData(const mjModel* m, int id) {
-  return m->nuser_actuator > kConfigSlot ? m->actuator_user + static_cast<size_t>(id) * m->nuser_actuator : nullptr;
+  return m->nuser_actuator >= ActuatorUserSize() ? m->actuator_user + static_cast<size_t>(id) * m->nuser_actuator
+                                                 : nullptr;
 }
 
 bool IsTagged(const mjModel* m, int id) {
@@ -309,6 +314,7 @@ void Store(mjModel* m, const CompiledModel& model) {
       bool home = id == c.info().chamber_actuator[0];
       user[kTagSlot] = home ? kHomeTag : kMemberTag;
       user[kFingerprintSlot] = model.fingerprint;
+      user[LeaderSlot()] = id == model.leader;
       if (home) PackConfig(c.config(), user + kConfigSlot);
     }
     c.WriteGains(m);
@@ -322,6 +328,7 @@ void Store(mjModel* m, const CompiledModel& model) {
     double* user = m->actuator_user + static_cast<size_t>(r.actuator) * m->nuser_actuator;
     user[kTagSlot] = kReservoirTag;
     user[kFingerprintSlot] = model.fingerprint;
+    user[LeaderSlot()] = r.actuator == model.leader;
     PackReservoirConfig(r.config, user + kConfigSlot);
     // no force: a fixed gain of 0
     m->actuator_gaintype[r.actuator] = mjGAIN_FIXED;
@@ -461,8 +468,23 @@ void StepPass(const CompiledModel& model, const mjModel* m, mjData* d) {
   mjFREESTACK;
 }
 
+// every act_dot of the model's stored actuators set to 0: their states hold
+void HoldEveryState(const mjModel* m, mjData* d) {
+  for (int id = m->nu - m->na; id < m->nu; ++id) {
+    if (IsTagged(m, id)) d->act_dot[id - (m->nu - m->na)] = 0;
+  }
+}
+
 mjtNum ActDyn(const mjModel* m, const mjData* d, int id) {
+  // the hot path: a pneumatic actuator other than the leader, whose pass (earlier in this
+  // mj_fwdActuation: MuJoCo asks in increasing id) wrote its act_dot
+  if (IsTagged(m, id) && UserData(m, id)[LeaderSlot()] == 0) return d->act_dot[id - (m->nu - m->na)];
   const CompiledModel* model = Lookup(m, id);
+  if (!model && IsTagged(m, id)) {
+    // the leader of a model whose stored parameters are damaged (Lookup warned): nothing steps on them
+    HoldEveryState(m, const_cast<mjData*>(d));
+    return 0;
+  }
   if (!model) {
     mjfAct previous = GetPrevious().dyn.load(std::memory_order_relaxed);
     return previous ? previous(m, d, id) : 0;
@@ -510,7 +532,7 @@ std::shared_ptr<const CompiledModel> Compiled(const mjModel* m, std::string* err
 
 // stores `model` in m and makes it the current decoding
 bool StoreModel(mjModel* m, std::shared_ptr<CompiledModel> model, std::string* error) {
-  if (SupplySlot() + 1 > ActuatorUserSize() || kConfigSlot + PackedReservoirSize() > ActuatorUserSize()) {
+  if (SupplySlot() + 1 > LeaderSlot() || kConfigSlot + PackedReservoirSize() > LeaderSlot()) {
     mju_error("pneumatic: the parameter table outgrew ActuatorUserSize(); raise it");
   }
   if ((!model->cylinders.empty() || !model->reservoirs.empty()) && m->nuser_actuator < ActuatorUserSize()) {
