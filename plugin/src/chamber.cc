@@ -337,13 +337,13 @@ constexpr double kMaxSlopeChange = 0.25;
 
 }  // namespace
 
-bool LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* ports[], const VolumePath volume[],
-                            double piston_leak, const double p0[], double h, double p1[]) {
-  if (n == 1) piston_leak = 0;
+void LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* ports[], const VolumePath volume[],
+                            double piston_leak, const double p0[], double h, double p1[], bool done[]) {
+  const bool coupled = n == 2 && piston_leak > 0;
+  if (!coupled) piston_leak = 0;
   // a valve switching within the step: the adaptive step splits there
-  for (int i = 0; i < n; ++i) {
-    if (!ports[i]->breakpoints().empty()) return false;
-  }
+  bool ok[2] = {true, true};
+  for (int i = 0; i < n; ++i) ok[i] = ports[i]->breakpoints().empty();
   // the polytropic compression as a constant rate, -alpha n ln(V(h)/V(0)) / h, so that a sealed chamber
   // follows p V^(alpha n) exactly; the flow term with the volume at mid-step
   double v_mid[2] = {1, 1}, compression[2] = {0, 0}, compressed[2] = {0, 0};
@@ -361,13 +361,15 @@ bool LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* p
   }
   // exponential Rosenbrock-Euler: p + h phi1(B h) rate, B the slope (exact where the flow is linear)
   LinearSystem start = System(n, k, open_start, v_mid, compression, piston_leak, p0, h);
-  double change[2] = {0, 0}, predicted[2] = {0, 0}, phi1 = 1, phi2 = 0.5;
-  if (n == 1) {
-    // one chamber: the scalar functions of b h, from one exponential
-    Phi1And2(start.b[0][0] * h, &phi1, &phi2);
-    change[0] = phi1 * start.rate[0];
-  } else {
+  double change[2] = {0, 0}, predicted[2] = {0, 0}, phi1[2] = {1, 1}, phi2[2] = {0.5, 0.5};
+  if (coupled) {
     ApplyMatrixFunction(n, Phi1, Phi1Slope, start, h, start.rate, change);
+  } else {
+    // chambers on their own: the scalar functions of b h, from one exponential each
+    for (int i = 0; i < n; ++i) {
+      Phi1And2(start.b[i][i] * h, &phi1[i], &phi2[i]);
+      change[i] = phi1[i] * start.rate[i];
+    }
   }
   // each chamber's pressure kept within what it can reach from its compressed pressure
   Range reachable[2];
@@ -381,25 +383,29 @@ bool LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* p
   LinearSystem at_end = System(n, k, open_end, v_mid, compression, piston_leak, predicted, h);
   double missed[2] = {0, 0}, correction[2] = {0, 0};
   for (int i = 0; i < n; ++i) {
-    double linear_change = start.b[i][0] * (predicted[0] - p0[0]) + (n == 2 ? start.b[i][1] * (predicted[1] - p0[1]) : 0);
+    double linear_change = start.b[i][i] * (predicted[i] - p0[i]);
+    if (coupled) linear_change += start.b[i][1 - i] * (predicted[1 - i] - p0[1 - i]);
     missed[i] = at_end.rate[i] - start.rate[i] - linear_change;
   }
-  if (n == 1) {
-    correction[0] = phi2 * missed[0];
-  } else {
+  if (coupled) {
     ApplyMatrixFunction(n, Phi2, Phi2Slope, start, h, missed, correction);
+  } else {
+    for (int i = 0; i < n; ++i) correction[i] = phi2[i] * missed[i];
   }
-  const double tolerance = n == 2 ? std::min(k[0].tolerance, k[1].tolerance) : k[0].tolerance;
   for (int i = 0; i < n; ++i) {
     // error indicators: the correction (ETD1's local error), half the step times the remainder's change
     // (which stiffness would hide from the correction), and how far the slope changed over the step:
     // near a port pressure the laws go as sqrt, and a linearization holds for a short way only
+    const double tolerance = coupled ? std::min(k[0].tolerance, k[1].tolerance) : k[i].tolerance;
     double error = std::max(std::fabs(h * correction[i]), std::fabs(h / 2 * missed[i]));
     double b_start = compression[i] - start.b[i][i], b_end = compression[i] - at_end.b[i][i];
-    if (!(error <= tolerance) || std::fabs(b_end - b_start) > kMaxSlopeChange * std::max(b_start, b_end)) return false;
+    ok[i] = ok[i] && error <= tolerance && std::fabs(b_end - b_start) <= kMaxSlopeChange * std::max(b_start, b_end);
   }
-  for (int i = 0; i < n; ++i) p1[i] = std::clamp(predicted[i] + h * correction[i], reachable[i].lo, reachable[i].hi);
-  return true;
+  if (coupled) ok[0] = ok[1] = ok[0] && ok[1];
+  for (int i = 0; i < n; ++i) {
+    done[i] = ok[i];
+    if (ok[i]) p1[i] = std::clamp(predicted[i] + h * correction[i], reachable[i].lo, reachable[i].hi);
+  }
 }
 
 void PistonOrificeExchange(const ChamberModel k[2], const double volume[2], double area, double t, double p[2]) {

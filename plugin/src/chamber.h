@@ -77,7 +77,9 @@ double PhysicalPressureStep(const ChamberModel& k, const PortSchedule& ports, co
                             double p0, double h);
 
 // The default step: pressures (Pa abs) of n chambers (1, or 2: a cylinder's P and N,
-// coupled by the leak across the piston) at the end of a step of length h from p0.
+// coupled by the leak across the piston when piston_leak > 0, else each on its own) at
+// the end of a step of length h from p0. Two chambers on their own step exactly as each
+// alone would; taken together, their work interleaves.
 // The polytropic compression enters as the constant rate -alpha n ln(V(h)/V(0)) / h,
 // so a sealed chamber follows p V^(alpha n) exactly. The flow is split into a stiff
 // linear part, B = the slope dQ/dp of each port's law and the leaks (times
@@ -86,11 +88,12 @@ double PhysicalPressureStep(const ChamberModel& k, const PortSchedule& ports, co
 // slope), and a second-order correction h phi2(B h) adds the remainder's change over
 // the step (ETD2RK). Near a port pressure, where the laws go as sqrt, the slope is
 // replaced by the chord over the pressure change the flow makes in the step.
-// Returns false, leaving p1 unset, where the step cannot be trusted and the adaptive
+// done[i] is false, p1[i] unset, where the step cannot be trusted and the adaptive
 // PhysicalPressureStep must take over: a valve switching within the step, a local
-// error indicator above k.tolerance, or a slope that changes by more than a quarter.
-bool LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* ports[], const VolumePath volume[],
-                            double piston_leak, const double p0[], double h, double p1[]);
+// error indicator above k.tolerance, or a slope that changes by more than a quarter
+// (coupled chambers are taken or refused together).
+void LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* ports[], const VolumePath volume[],
+                            double piston_leak, const double p0[], double h, double p1[], bool done[]);
 
 // An orifice leak of `area` across the piston (leak_law of k[0]) alone over a time t, chambers at fixed
 // volumes: dp_P/dt = -a_P Q(p_P, p_N), dp_N/dt = a_N Q, a = n r T / V. Backward Euler substeps in the mass

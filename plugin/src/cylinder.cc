@@ -420,14 +420,15 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
       PistonOrificeExchange(models, v_start_both, orifice, h / 2, pin);
     }
     if (config_.step == ChamberStep::kLinearized) {
+      // both chambers in one call where both take it (coupled by the leak across the piston, or
+      // each on its own), else the one that does
       const PortSchedule* schedules[2] = {&ports[0], &ports[1]};
-      if (leak > 0 && physical[0] && physical[1]) {
-        done[0] = done[1] = LinearizedPressureStep(2, models, schedules, volume, leak, pin, h, p1);
+      bool takes[2] = {physical[0] && !line[0], physical[1] && !line[1]};
+      if (takes[0] && takes[1]) {
+        LinearizedPressureStep(2, models, schedules, volume, leak, pin, h, p1, done);
       } else {
         for (int k = 0; k < 2; ++k) {
-          if (physical[k] && !line[k]) {
-            done[k] = LinearizedPressureStep(1, &models[k], &schedules[k], &volume[k], 0, &pin[k], h, &p1[k]);
-          }
+          if (takes[k]) LinearizedPressureStep(1, &models[k], &schedules[k], &volume[k], 0, &pin[k], h, &p1[k], &done[k]);
         }
       }
     }
