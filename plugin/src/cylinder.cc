@@ -36,7 +36,7 @@ bool SameTransmission(const mjModel* m, int a, int b) {
 double ClampedControl(const mjModel* m, const mjData* d, int id) {
   double u = d->ctrl[id];
   if (m->actuator_ctrllimited[id] && !(m->opt.disableflags & mjDSBL_CLAMPCTRL)) {
-    u = mju_clip(u, m->actuator_ctrlrange[2 * id], m->actuator_ctrlrange[2 * id + 1]);
+    u = Clip(u, m->actuator_ctrlrange[2 * id], m->actuator_ctrlrange[2 * id + 1]);
   }
   return u;
 }

@@ -18,6 +18,9 @@
 
 namespace pneumatic {
 
+// mju_clip, inlined for the pass: lo below lo, hi above hi, else x (NaN stays NaN)
+inline double Clip(double x, double lo, double hi) { return x < lo ? lo : (x > hi ? hi : x); }
+
 // what the whole model's pass computes once for every cylinder
 struct PassInputs {
   bool zero_commands = false;         // a bad control: MuJoCo zeroes every control this pass

@@ -385,7 +385,7 @@ bool AnyBadControl(const mjModel* m, const mjData* d) {
   for (int id = 0; id < m->nu; ++id) {
     double u = d->ctrl[id];
     if (clamp && m->actuator_ctrllimited[id]) {
-      u = mju_clip(u, m->actuator_ctrlrange[2 * id], m->actuator_ctrlrange[2 * id + 1]);
+      u = Clip(u, m->actuator_ctrlrange[2 * id], m->actuator_ctrlrange[2 * id + 1]);
     }
     if (!(std::fabs(u) <= mjMAXVAL)) return true;  // mju_isBad, inlined: NaN or beyond 1e10
   }
@@ -398,7 +398,7 @@ bool ForcesAreCurrent(const mjModel* m, const mjData* d, const CompiledModel& mo
   for (const Cylinder& c : model.cylinders) {
     int id = c.info().chamber_actuator[0];
     double force = m->actuator_gainprm[id * mjNGAIN] * d->act[id - (m->nu - m->na)];
-    if (m->actuator_forcelimited[id]) force = mju_clip(force, m->actuator_forcerange[2 * id], m->actuator_forcerange[2 * id + 1]);
+    if (m->actuator_forcelimited[id]) force = Clip(force, m->actuator_forcerange[2 * id], m->actuator_forcerange[2 * id + 1]);
     if (d->actuator_force[id] != force) return false;
   }
   return true;
