@@ -41,6 +41,9 @@ class Controller {
   virtual std::vector<double> State() const = 0;
   // false (and no change) if `state` is not one this controller's State() gives
   virtual bool SetState(const std::vector<double>& state) = 0;
+  // whether Update reads CylinderMeasurement::mobility; a rollout computes it only then (it costs
+  // a pass over the model's kinematics and mass matrix per tick)
+  virtual bool UsesMobility() const { return false; }
 };
 
 }  // namespace pneumatic

@@ -59,6 +59,10 @@ void PositionPid::Update(double /*time*/, const std::vector<CylinderMeasurement>
   }
 }
 
+bool PositionPid::UsesMobility() const {
+  return std::any_of(gains_.begin(), gains_.end(), [](const PositionPidGains& g) { return g.bandwidth > 0; });
+}
+
 std::vector<double> PositionPid::State() const {
   std::vector<double> state(pids_.size() * Pid::kStateSize);
   for (size_t i = 0; i < pids_.size(); ++i) pids_[i].GetState(&state[i * Pid::kStateSize]);

@@ -71,6 +71,8 @@ class PositionPid : public Controller {
               std::vector<CylinderCommands>* commands) override;
   std::vector<double> State() const override;
   bool SetState(const std::vector<double>& state) override;
+  // true when some cylinder's gains follow its load (bandwidth > 0)
+  bool UsesMobility() const override;
 
  private:
   // the gains of cylinder i for this tick's measurement

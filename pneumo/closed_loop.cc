@@ -259,9 +259,11 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
     if (std::string e = options.observer(d.get()); !e.empty()) return fail(e);
   }
   const auto start = std::chrono::steady_clock::now();
+  const bool uses_mobility = controller && controller->UsesMobility();
+  mobility.assign(channels.size(), 0.0);
   for (long k = 0; k < ticks; ++k) {
     const double t = d->time;
-    Mobilities(m, d.get(), scratch.get(), channels, &mobility_workspace, &mobility);
+    if (uses_mobility) Mobilities(m, d.get(), scratch.get(), channels, &mobility_workspace, &mobility);
     for (size_t i = 0; i < channels.size(); ++i) {
       Channel& ch = channels[i];
       CylinderMeasurement& y = measured[i];

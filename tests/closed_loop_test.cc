@@ -112,6 +112,8 @@ TEST(PositionPid, BandwidthRaisesTheGainsToTheLoad) {
   PositionPidGains gains;
   gains.kp = gains.ki = gains.kd = 0, gains.bandwidth = 20, gains.co_contraction = 0.5, gains.swing = 2;
   PositionPid pid({drive}, {gains}, 0.01);
+  EXPECT_TRUE(pid.UsesMobility());
+  EXPECT_FALSE(PositionPid({drive}, {PositionPidGains{}}, 0.01).UsesMobility());
   std::vector<CylinderCommands> out;
   CylinderMeasurement y;
   // mobility 2 1/kg: a = 4000 1/s^2, kp = 3 w^2/a = 0.3, ki = w^3/a = 2, kd = 3 w/a = 0.015; x = 0,
@@ -139,10 +141,11 @@ TEST(PositionPid, BandwidthRaisesTheGainsToTheLoad) {
   EXPECT_NEAR(out[0][0].second, 5 + 0.5 + 2 * 0.02, 1e-12);
 }
 
-// a controller that records each tick's mobility and leaves the valves at rest
+// a controller that records each tick's mobility and leaves the valves at rest; `reads` says
+// whether it declares that it reads the mobility
 class MobilityRecorder : public Controller {
  public:
-  explicit MobilityRecorder(std::vector<double>* seen) : seen_(seen) {}
+  MobilityRecorder(std::vector<double>* seen, bool reads) : seen_(seen), reads_(reads) {}
   double Period() const override { return 0.01; }
   void Update(double, const std::vector<CylinderMeasurement>& measured, std::vector<CylinderCommands>* commands) override {
     seen_->push_back(measured[0].mobility);
@@ -150,14 +153,16 @@ class MobilityRecorder : public Controller {
   }
   std::vector<double> State() const override { return {}; }
   bool SetState(const std::vector<double>& state) override { return state.empty(); }
+  bool UsesMobility() const override { return reads_; }
 
  private:
   std::vector<double>* seen_;
+  bool reads_;
 };
 
 // On rig C the piston is the slide joint's 0.5 kg body: the rollout measures a mobility of 1/0.5 kg
-// at every tick, and computing it leaves the run as it was (the same log as without a controller
-// that reads it: the valves at rest either way)
+// at every tick for a controller that reads it (0 for one that does not), and computing it leaves
+// the run as it was (the same log as without a controller: the valves at rest either way)
 TEST(ClosedLoop, MeasuresTheMobilityThePistonSees) {
   AttachedModel model;
   ASSERT_TRUE(model.Load(ShippedModel("rig_per_chamber.xml"), true)) << model.error();
@@ -165,13 +170,18 @@ TEST(ClosedLoop, MeasuresTheMobilityThePistonSees) {
   ClosedLoopOptions options;
   options.duration = 0.2;
   options.controller = "custom";
+  bool reads = true;
   options.make_controller = [&](const std::vector<ValveDrive>&, double, std::string*) {
-    return std::unique_ptr<Controller>(new MobilityRecorder(&seen));
+    return std::unique_ptr<Controller>(new MobilityRecorder(&seen, reads));
   };
   ClosedLoopResult recorded = RunClosedLoop(model.m(), options);
   ASSERT_TRUE(recorded.log) << recorded.error;
   ASSERT_EQ(seen.size(), 20u);
   for (double mobility : seen) EXPECT_NEAR(mobility, 1 / 0.5, 1e-12);
+  seen.clear(), reads = false;
+  ASSERT_TRUE(RunClosedLoop(model.m(), options).log);
+  ASSERT_EQ(seen.size(), 20u);
+  for (double mobility : seen) EXPECT_EQ(mobility, 0);
   options.controller = "none";
   ClosedLoopResult rest = RunClosedLoop(model.m(), options);
   ASSERT_TRUE(rest.log) << rest.error;
