@@ -109,6 +109,43 @@ TEST(ChamberStep, MovingPistonMatchesFineStepReference) {
               1e-4 * (c.p_supply - c.p_exhaust));
 }
 
+// A chamber compressed while its supply port is open passes p_supply: the air it cannot hold goes back
+// through the port only when the chamber is above the supply. Rig C chamber P at 6 V is pushed in at
+// v = 0.5 m/s from p_supply. The quasi-steady state of dp/dt = n r T Q(p) / V - alpha n p dV/dt / V = 0
+// is r T Q(p) = alpha p dV/dt, which does not depend on V. By hand (paper 000 eqs. 1, 3): the supply
+// port is a_s = 1.565 mm^2 open, the exhaust port a_e = 0.141 mm^2 (its leak and the smooth max's tail),
+// choked: Q_e = a_e beta p = 1.50e-4 kg/s with beta = 1.71e-3 s/m; A v p / (r T) = 2.90e-4 kg/s is pushed
+// out, so 1.40e-4 kg/s flows back to the supply, which in the incompressible limit of the thin-plate law,
+// Q = C_d a_s sqrt(2 rho dp) with rho = p / (Z r T) = 7.47 kg/m^3, needs dp = 1.03 kPa above supply.
+// Both chamber steps settle on the exact root, at 1 ms steps.
+TEST(ChamberStep, CompressedChamberSettlesAboveSupplyWhereItsBackFlowCarriesTheCompression) {
+  CylinderConfig c = ShippedConfig("rig_per_chamber.xml");
+  ChamberModel k = MakeChamberModel(c, 0);
+  const double h = 1e-3, speed = 0.5, area = c.chamber[0].area;
+  ValveInputs in;
+  in.step = h, in.command[0] = 6;
+  PortSchedule ports(c, 0, in);
+  // the root of r T Q(p) + alpha A v p = 0 between p_supply and twice it, by bisection
+  auto residual = [&](double p) { return k.gas_rt * NetMassFlow(k, ports.At(0), p, 0, 0) + k.work_factor * area * speed * p; };
+  double lo = c.p_supply, hi = 2 * c.p_supply;
+  ASSERT_GT(residual(lo), 0);
+  for (int i = 0; i < 200; ++i) (residual((lo + hi) / 2) > 0 ? lo : hi) = (lo + hi) / 2;
+  const double settled = (lo + hi) / 2;
+  EXPECT_NEAR(settled - c.p_supply, 1030, 0.05 * 1030);  // the estimate by hand
+  for (bool linearized : {true, false}) {
+    double p = c.p_supply, swept = 0.09;  // m: chamber P nearly full; 40 steps leave 0.07 m
+    for (int i = 0; i < 40; ++i, swept -= speed * h) {
+      VolumePath v{c.chamber[0].dead_volume, area, c.stroke, swept, -speed};
+      const PortSchedule* schedule = &ports;
+      double end = p;
+      bool done = false;
+      if (linearized) LinearizedPressureStep(1, &k, &schedule, &v, 0, &p, h, &end, &done);
+      p = done ? end : PhysicalPressureStep(k, ports, v, p, h);
+    }
+    EXPECT_NEAR(p, settled, 0.01 * (settled - c.p_supply)) << (linearized ? "linearized" : "exact") << " step";
+  }
+}
+
 TEST(ChamberStep, SealedChamberFollowsPolytropicLaw) {
   // no flow: p V^(alpha n) is conserved exactly over any volume path (rigs.md rig B: alpha n = 0.89 * 1.4)
   CylinderConfig c = ShippedConfig("rig_proportional.xml");
