@@ -1,9 +1,7 @@
 #include "cylinder.h"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
-#include <optional>
 
 namespace pneumatic {
 namespace {
@@ -328,13 +326,13 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
     for (int j = 0; j < 2; ++j) ActDot(m, d, extra_state_id_[DelaySlot(ch) + j]) = (end[j] - valves.delay[ch][j]) / h;
   }
   // the chambers' models; a reservoir's pressure at the start of the step on the supply ports (copies
-  // made only then: a ChamberModel is large, and the common case needs none)
+  // made only then, in storage left uninitialised otherwise: a ChamberModel is large, and the common
+  // case needs none)
   const ChamberModel* models = chamber_model_;
-  std::optional<std::array<ChamberModel, 2>> fed;
+  InlineVector<ChamberModel, 2> fed;
   if (supply_pressure) {
-    fed.emplace(std::array<ChamberModel, 2>{chamber_model_[0], chamber_model_[1]});
-    for (ChamberModel& k : *fed) k.p_supply = *supply_pressure;
-    models = fed->data();
+    for (int k = 0; k < 2; ++k) fed.push_back(chamber_model_[k]), fed[k].p_supply = *supply_pressure;
+    models = fed.begin();
   }
 
   // act_dot of each chamber: (p(t + h) - p(t)) / h, or dp/dt for step=explicit

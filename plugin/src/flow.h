@@ -6,6 +6,9 @@
 #ifndef PNEUMATIC_FLOW_H_
 #define PNEUMATIC_FLOW_H_
 
+#include <algorithm>
+#include <cmath>
+
 #include "config.h"
 
 namespace pneumatic {
@@ -52,11 +55,92 @@ FlowLawConstants ThinPlateConstants(double discharge_coefficient, double kappa, 
 
 // Signed mass flow (kg/s) from pressure p_from to p_to (Pa abs) through a port
 // of the given opening (C_val for iso6358, area for the others).
-double MassFlow(const FlowLawConstants& law, double opening, double p_from, double p_to);
+inline double MassFlow(const FlowLawConstants& law, double opening, double p_from, double p_to);
 
 // MassFlow and its derivative by p_to (kg/(s Pa), <= 0): the flow's slope seen from the
 // downstream side; it grows without bound as the two pressures meet
-double MassFlowAndSlope(const FlowLawConstants& law, double opening, double p_from, double p_to, double* slope_to);
+inline double MassFlowAndSlope(const FlowLawConstants& law, double opening, double p_from, double p_to,
+                               double* slope_to);
+
+//---------------------------------------------------------------------------------------------------
+// The definitions of the evaluations above, here so that the chamber steps, which call them four times
+// per chamber and step, can inline them.
+
+inline double ThinPlateTable::Shape(double r, double* d_shape) const {
+  // cubic Hermite interpolation of f on the interval holding r
+  double x = (r - r_min) * step_inverse;
+  int i = std::clamp(static_cast<int>(x), 0, kIntervals - 1);
+  double u = x - i, u2 = u * u, u3 = u2 * u;
+  double h00 = 2 * u3 - 3 * u2 + 1, h10 = u3 - 2 * u2 + u, h01 = -2 * u3 + 3 * u2, h11 = u3 - u2;
+  double value = h00 * f[i] + h10 * step * slope[i] + h01 * f[i + 1] + h11 * step * slope[i + 1];
+  double d_value = ((6 * u2 - 6 * u) * (f[i] - f[i + 1])) * step_inverse + (3 * u2 - 4 * u + 1) * slope[i] +
+                   (3 * u2 - 2 * u) * slope[i + 1];
+  // sqrt(1 - r) f(r): the square root carries the infinite slope at r = 1
+  double t = std::max(1 - r, 0.0), root = std::sqrt(t);
+  *d_shape = t > 0 ? root * d_value - value / (2 * root) : 0;
+  return root * value;
+}
+
+namespace flow_detail {
+
+// flow for pu >= pd >= 0 and opening >= 0, and its partial derivatives by pu and pd (kg/(s Pa)); the
+// derivatives grow without bound as pd reaches pu, where the laws go as sqrt(pu - pd)
+inline double ForwardFlow(const FlowLawConstants& law, double opening, double pu, double pd, double* d_pu,
+                          double* d_pd) {
+  *d_pu = 0, *d_pd = 0;
+  if (pu <= 0 || opening <= 0) return 0;
+  double ratio = pd / pu;
+  if (law.law == FlowLaw::kThinPlate) {
+    // thin-plate flow, paper 000 eq. (1c): choked when pu/pd > theta
+    if (pd * law.theta < pu) {
+      *d_pu = opening * law.beta;
+      return opening * law.beta * pu;
+    }
+    double slope = 0;
+    double root = law.table->Shape(ratio, &slope);  // sqrt(ratio^(2/kappa) - ratio^((kappa+1)/kappa))
+    *d_pd = opening * law.alpha * slope;
+    *d_pu = opening * law.alpha * (root - ratio * slope);
+    return opening * law.alpha * pu * root;
+  }
+  // elliptic law, paper 002 eq. (4) / paper 001 eq. (2): choked when pd/pu <= b
+  double b = law.critical_ratio;
+  if (ratio <= b) {
+    *d_pu = law.gain * opening;
+    return law.gain * opening * pu;
+  }
+  double s = (ratio - b) / (1 - b);
+  double shape = std::sqrt(std::max(1 - s * s, 0.0));
+  if (shape > 0) {
+    double slope = -s / ((1 - b) * shape);  // d shape / d ratio
+    *d_pd = law.gain * opening * slope;
+    *d_pu = law.gain * opening * (shape - ratio * slope);
+  }
+  return law.gain * opening * pu * shape;
+}
+
+}  // namespace flow_detail
+
+inline double MassFlow(const FlowLawConstants& law, double opening, double p_from, double p_to) {
+  double slope = 0;
+  return MassFlowAndSlope(law, opening, p_from, p_to, &slope);
+}
+
+inline double MassFlowAndSlope(const FlowLawConstants& law, double opening, double p_from, double p_to,
+                               double* slope_to) {
+  // negative absolute pressures are unphysical: treat them as vacuum
+  p_from = std::max(p_from, 0.0);
+  p_to = std::max(p_to, 0.0);
+  // reversed flow, rigs.md: Q(pu, pd) = -Q(pd, pu); paper 000 eq. (1b)
+  double d_pu = 0, d_pd = 0;
+  if (p_from >= p_to) {
+    double q = flow_detail::ForwardFlow(law, opening, p_from, p_to, &d_pu, &d_pd);
+    *slope_to = d_pd;
+    return q;
+  }
+  double q = -flow_detail::ForwardFlow(law, opening, p_to, p_from, &d_pu, &d_pd);
+  *slope_to = -d_pu;
+  return q;
+}
 
 }  // namespace pneumatic
 
