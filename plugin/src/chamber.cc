@@ -275,18 +275,18 @@ void UseChordNearThePort(const FlowLawConstants& law, double opening, double p_p
 
 // the chambers' pressure rates, and their stiff linear part B: the exponential step treats
 // dp/dt = B p + N(p) (paper 000 eq. 4a), with B from the compression rate, and from the port
-// conductances and the leaks times D = n r T / V, and N the remainder
+// conductances and the leaks times D = n r T / V (`gain`, per chamber), and N the remainder
 struct LinearSystem {
   double b[2][2] = {{0, 0}, {0, 0}};
   double rate[2] = {0, 0};  // dp/dt at the pressures the system was built at (Pa/s)
 };
 
-LinearSystem System(int n, const ChamberModel k[], const PortOpenings o[], const double volume[],
+LinearSystem System(int n, const ChamberModel k[], const PortOpenings o[], const double gain[],
                     const double compression[], double piston_leak, const double p[], double substep) {
   LinearSystem s;
   for (int i = 0; i < n; ++i) {
     const ChamberModel& c = k[i];
-    double d = c.polytropic_index * c.gas_rt / volume[i];
+    const double d = gain[i];
     double p_other = n == 2 ? p[1 - i] : p[i];
     PortFlow supply = Port(c.flow, o[i].supply, c.p_supply, p[i]);
     PortFlow exhaust = Port(c.flow, o[i].exhaust, c.p_exhaust, p[i]);
@@ -360,7 +360,10 @@ void LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* p
     open_start[i] = ports[i]->At(0), open_end[i] = ports[i]->At(h);
   }
   // exponential Rosenbrock-Euler: p + h phi1(B h) rate, B the slope (exact where the flow is linear)
-  LinearSystem start = System(n, k, open_start, v_mid, compression, piston_leak, p0, h);
+  // D = n r T / V at mid-step, the pressure rate per unit of mass flow
+  double gain[2] = {0, 0};
+  for (int i = 0; i < n; ++i) gain[i] = k[i].polytropic_index * k[i].gas_rt / v_mid[i];
+  LinearSystem start = System(n, k, open_start, gain, compression, piston_leak, p0, h);
   double change[2] = {0, 0}, predicted[2] = {0, 0}, phi1[2] = {1, 1}, phi2[2] = {0.5, 0.5};
   if (coupled) {
     ApplyMatrixFunction(n, Phi1, Phi1Slope, start, h, start.rate, change);
@@ -380,7 +383,7 @@ void LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* p
   // second-order correction (ETD2RK, Cox and Matthews 2002): h phi2(B h) times the change of the
   // remainder N = rate - B p over the step, valve openings moving from their start to their end
   // value (a spool)
-  LinearSystem at_end = System(n, k, open_end, v_mid, compression, piston_leak, predicted, h);
+  LinearSystem at_end = System(n, k, open_end, gain, compression, piston_leak, predicted, h);
   double missed[2] = {0, 0}, correction[2] = {0, 0};
   for (int i = 0; i < n; ++i) {
     double linear_change = start.b[i][i] * (predicted[i] - p0[i]);

@@ -59,7 +59,7 @@ inline double MassFlow(const FlowLawConstants& law, double opening, double p_fro
 
 // MassFlow and its derivative by p_to (kg/(s Pa), <= 0): the flow's slope seen from the
 // downstream side; it grows without bound as the two pressures meet
-inline double MassFlowAndSlope(const FlowLawConstants& law, double opening, double p_from, double p_to,
+[[gnu::always_inline]] inline double MassFlowAndSlope(const FlowLawConstants& law, double opening, double p_from, double p_to,
                                double* slope_to);
 
 //---------------------------------------------------------------------------------------------------
@@ -125,7 +125,7 @@ inline double MassFlow(const FlowLawConstants& law, double opening, double p_fro
   return MassFlowAndSlope(law, opening, p_from, p_to, &slope);
 }
 
-inline double MassFlowAndSlope(const FlowLawConstants& law, double opening, double p_from, double p_to,
+[[gnu::always_inline]] inline double MassFlowAndSlope(const FlowLawConstants& law, double opening, double p_from, double p_to,
                                double* slope_to) {
   // negative absolute pressures are unphysical: treat them as vacuum
   p_from = std::max(p_from, 0.0);

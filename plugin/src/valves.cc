@@ -260,7 +260,7 @@ PortSchedule::PortSchedule(const CylinderConfig& c, int chamber, const ValveInpu
   }
 }
 
-PortOpenings PortSchedule::At(double tau) const {
+PortOpenings PortSchedule::Varying(double tau) const {
   if (signal_driven_ && !spool_) {
     // paper 000 eq. (3) at the delayed and lagged voltage
     return ProportionalValveAreas(config_->chamber[chamber_], signal_.At(tau), config_->deadband_voltage);

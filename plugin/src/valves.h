@@ -127,11 +127,17 @@ double SpoolOpening(const CylinderConfig& c, double spool_position);
 class PortSchedule {
  public:
   PortSchedule(const CylinderConfig& c, int chamber, const ValveInputs& in);
-  PortOpenings At(double tau) const;
+  PortOpenings At(double tau) const {
+    // the common case inline: openings held over the whole step
+    return signal_driven_ || spool_ || !breakpoints_.empty() ? Varying(tau) : segments_[0];
+  }
   // instants in (0, h) where the openings jump, increasing
   const SwitchInstants& breakpoints() const { return breakpoints_; }
 
  private:
+  // At for openings that change over the step (a spool, a lag or a dead time, switching valves)
+  PortOpenings Varying(double tau) const;
+
   const CylinderConfig* config_;
   int chamber_;
   bool spool_ = false;                  // 5/3 valve: openings follow the spool
