@@ -186,7 +186,8 @@ struct Drive {
 // the actuators, joints and excitation table of a model (an attached one, if pneumatic)
 Drive MakeDrive(const char* label, mjModel* m, int cylinders, bool pneumatic) {
   Drive drive{label, m, pneumatic ? 2 * cylinders : 0, {}, {}, {}, {}};
-  std::vector<pneumatic::CylinderInfo> infos = pneumatic ? pneumatic::Cylinders(m) : std::vector<pneumatic::CylinderInfo>{};
+  std::vector<pneumatic::CylinderInfo> infos;
+  if (pneumatic) infos = pneumatic::Cylinders(m);
   for (int i = 0; i < cylinders; ++i) {
     if (pneumatic) {
       // uP and uN, wherever the layout keeps them

@@ -126,7 +126,9 @@ TEST(ChamberStep, CompressedChamberSettlesAboveSupplyWhereItsBackFlowCarriesTheC
   in.step = h, in.command[0] = 6;
   PortSchedule ports(c, 0, in);
   // the root of r T Q(p) + alpha A v p = 0 between p_supply and twice it, by bisection
-  auto residual = [&](double p) { return k.gas_rt * NetMassFlow(k, ports.At(0), p, 0, 0) + k.work_factor * area * speed * p; };
+  auto residual = [&](double p) {
+    return k.gas_rt * NetMassFlow(k, ports.At(0), p, 0, 0) + k.work_factor * area * speed * p;
+  };
   double lo = c.p_supply, hi = 2 * c.p_supply;
   ASSERT_GT(residual(lo), 0);
   for (int i = 0; i < 200; ++i) (residual((lo + hi) / 2) > 0 ? lo : hi) = (lo + hi) / 2;

@@ -426,7 +426,8 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
         LinearizedPressureStep(2, models, schedules, volume, leak, pin, h, p1, done);
       } else {
         for (int k = 0; k < 2; ++k) {
-          if (takes[k]) LinearizedPressureStep(1, &models[k], &schedules[k], &volume[k], 0, &pin[k], h, &p1[k], &done[k]);
+          if (!takes[k]) continue;
+          LinearizedPressureStep(1, &models[k], &schedules[k], &volume[k], 0, &pin[k], h, &p1[k], &done[k]);
         }
       }
     }

@@ -59,8 +59,8 @@ inline double MassFlow(const FlowLawConstants& law, double opening, double p_fro
 
 // MassFlow and its derivative by p_to (kg/(s Pa), <= 0): the flow's slope seen from the
 // downstream side; it grows without bound as the two pressures meet
-[[gnu::always_inline]] inline double MassFlowAndSlope(const FlowLawConstants& law, double opening, double p_from, double p_to,
-                               double* slope_to);
+[[gnu::always_inline]] inline double MassFlowAndSlope(const FlowLawConstants& law, double opening, double p_from,
+                                                     double p_to, double* slope_to);
 
 //---------------------------------------------------------------------------------------------------
 // The definitions of the evaluations above, here so that the chamber steps, which call them four times
@@ -125,8 +125,8 @@ inline double MassFlow(const FlowLawConstants& law, double opening, double p_fro
   return MassFlowAndSlope(law, opening, p_from, p_to, &slope);
 }
 
-[[gnu::always_inline]] inline double MassFlowAndSlope(const FlowLawConstants& law, double opening, double p_from, double p_to,
-                               double* slope_to) {
+[[gnu::always_inline]] inline double MassFlowAndSlope(const FlowLawConstants& law, double opening, double p_from,
+                                                     double p_to, double* slope_to) {
   // negative absolute pressures are unphysical: treat them as vacuum
   p_from = std::max(p_from, 0.0);
   p_to = std::max(p_to, 0.0);
