@@ -215,6 +215,13 @@ double PhysicalPressureStep(const ChamberModel& k, const PortSchedule& ports, co
   return p;
 }
 
+double Log1p(double x) {
+  if (!(std::fabs(x) <= 1.0 / 64)) return std::log1p(x);
+  // x - x^2/2 + ... - x^10/10 in Horner's form; the first term left out, x^11/11, is below 1e-19 |x|
+  return x * (1 - x * (1.0 / 2 - x * (1.0 / 3 - x * (1.0 / 4 - x * (1.0 / 5 - x * (1.0 / 6 - x * (1.0 / 7 -
+         x * (1.0 / 8 - x * (1.0 / 9 - x / 10)))))))));
+}
+
 namespace {
 
 // phi1(x) = (e^x - 1)/x and phi2(x) = (e^x - 1 - x)/x^2 with their derivatives, accurate near 0;
@@ -252,7 +259,7 @@ struct PortFlow {
   double conductance = 0;  // kg/(s Pa)
 };
 
-PortFlow Port(const FlowLawConstants& law, double opening, double p_port, double p) {
+[[gnu::always_inline]] inline PortFlow Port(const FlowLawConstants& law, double opening, double p_port, double p) {
   PortFlow out;
   if (opening <= 0) return out;
   double slope = 0;
@@ -281,8 +288,10 @@ struct LinearSystem {
   double rate[2] = {0, 0};  // dp/dt at the pressures the system was built at (Pa/s)
 };
 
-LinearSystem System(int n, const ChamberModel k[], const PortOpenings o[], const double gain[],
-                    const double compression[], double piston_leak, const double p[], double substep) {
+// (n chambers, a constant: the loops over them unroll)
+template <int n>
+LinearSystem System(const ChamberModel k[], const PortOpenings o[], const double gain[], const double compression[],
+                    double piston_leak, const double p[], double substep) {
   LinearSystem s;
   for (int i = 0; i < n; ++i) {
     const ChamberModel& c = k[i];
@@ -313,7 +322,8 @@ LinearSystem System(int n, const ChamberModel k[], const PortOpenings o[], const
 // phi(B t) v for a function phi of the 2x2 matrix B t: phi(l2) v + phi[l1, l2] (B - l2 I) v
 // (Newton's form, exact for 2x2), with the eigenvalues l1 >= l2 of B, real and <= 0 (B is similar
 // to a symmetric negative semidefinite matrix); phi_slope is phi' for near-equal eigenvalues
-void ApplyMatrixFunction(int n, double (*phi)(double), double (*phi_slope)(double), const LinearSystem& s, double t,
+template <int n>
+void ApplyMatrixFunction(double (*phi)(double), double (*phi_slope)(double), const LinearSystem& s, double t,
                          const double v[], double out[]) {
   if (n == 1 || (s.b[0][1] == 0 && s.b[1][0] == 0)) {
     // uncoupled chambers: one scalar function each
@@ -335,10 +345,10 @@ void ApplyMatrixFunction(int n, double (*phi)(double), double (*phi_slope)(doubl
 // the linearized step holds where the flow's slope changes by at most this fraction over the step
 constexpr double kMaxSlopeChange = 0.25;
 
-}  // namespace
-
-void LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* ports[], const VolumePath volume[],
-                            double piston_leak, const double p0[], double h, double p1[], bool done[]) {
+// LinearizedPressureStep for n chambers, a constant
+template <int n>
+void LinearizedStep(const ChamberModel k[], const PortSchedule* ports[], const VolumePath volume[], double piston_leak,
+                    const double p0[], double h, double p1[], bool done[]) {
   const bool coupled = n == 2 && piston_leak > 0;
   if (!coupled) piston_leak = 0;
   // a valve switching within the step: the adaptive step splits there
@@ -353,7 +363,7 @@ void LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* p
     v_mid[i] = volume[i].At(h / 2);
     compressed[i] = p0[i];
     if (v_end != v_start) {
-      double log_ratio = -exponent * std::log1p((v_end - v_start) / v_start);  // ln (V(0)/V(h))^(alpha n)
+      double log_ratio = -exponent * Log1p((v_end - v_start) / v_start);  // ln (V(0)/V(h))^(alpha n)
       compression[i] = log_ratio / h;
       compressed[i] = p0[i] * std::exp(log_ratio);
     }
@@ -363,10 +373,10 @@ void LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* p
   // D = n r T / V at mid-step, the pressure rate per unit of mass flow
   double gain[2] = {0, 0};
   for (int i = 0; i < n; ++i) gain[i] = k[i].polytropic_index * k[i].gas_rt / v_mid[i];
-  LinearSystem start = System(n, k, open_start, gain, compression, piston_leak, p0, h);
+  LinearSystem start = System<n>(k, open_start, gain, compression, piston_leak, p0, h);
   double change[2] = {0, 0}, predicted[2] = {0, 0}, phi1[2] = {1, 1}, phi2[2] = {0.5, 0.5};
   if (coupled) {
-    ApplyMatrixFunction(n, Phi1, Phi1Slope, start, h, start.rate, change);
+    ApplyMatrixFunction<n>(Phi1, Phi1Slope, start, h, start.rate, change);
   } else {
     // chambers on their own: the scalar functions of b h, from one exponential each
     for (int i = 0; i < n; ++i) {
@@ -383,7 +393,7 @@ void LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* p
   // second-order correction (ETD2RK, Cox and Matthews 2002): h phi2(B h) times the change of the
   // remainder N = rate - B p over the step, valve openings moving from their start to their end
   // value (a spool)
-  LinearSystem at_end = System(n, k, open_end, gain, compression, piston_leak, predicted, h);
+  LinearSystem at_end = System<n>(k, open_end, gain, compression, piston_leak, predicted, h);
   double missed[2] = {0, 0}, correction[2] = {0, 0};
   for (int i = 0; i < n; ++i) {
     double linear_change = start.b[i][i] * (predicted[i] - p0[i]);
@@ -391,7 +401,7 @@ void LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* p
     missed[i] = at_end.rate[i] - start.rate[i] - linear_change;
   }
   if (coupled) {
-    ApplyMatrixFunction(n, Phi2, Phi2Slope, start, h, missed, correction);
+    ApplyMatrixFunction<n>(Phi2, Phi2Slope, start, h, missed, correction);
   } else {
     for (int i = 0; i < n; ++i) correction[i] = phi2[i] * missed[i];
   }
@@ -408,6 +418,17 @@ void LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* p
   for (int i = 0; i < n; ++i) {
     done[i] = ok[i];
     if (ok[i]) p1[i] = std::clamp(predicted[i] + h * correction[i], reachable[i].lo, reachable[i].hi);
+  }
+}
+
+}  // namespace
+
+void LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* ports[], const VolumePath volume[],
+                            double piston_leak, const double p0[], double h, double p1[], bool done[]) {
+  if (n == 2) {
+    LinearizedStep<2>(k, ports, volume, piston_leak, p0, h, p1, done);
+  } else {
+    LinearizedStep<1>(k, ports, volume, piston_leak, p0, h, p1, done);
   }
 }
 

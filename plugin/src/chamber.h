@@ -76,6 +76,10 @@ double PressureRate(const ChamberModel& k, const PortOpenings& o, double p, doub
 double PhysicalPressureStep(const ChamberModel& k, const PortSchedule& ports, const VolumePath& volume,
                             double p0, double h);
 
+// ln(1 + x): by its series for |x| <= 1/64 (a chamber's volume change over one step, nearly always),
+// cheaper than std::log1p and within 2 ulp of it (tests/chamber_test); std::log1p beyond
+double Log1p(double x);
+
 // The default step: pressures (Pa abs) of n chambers (1, or 2: a cylinder's P and N,
 // coupled by the leak across the piston when piston_leak > 0, else each on its own) at
 // the end of a step of length h from p0. Two chambers on their own step exactly as each

@@ -8,8 +8,9 @@
 namespace pneumatic {
 namespace {
 
-// smooth max(y, 0): paper 000 Section II.A.3
-double Smax(double y) { return (std::sqrt(y * y + 1) + y) / 2; }
+// smooth max(y, 0) over a scale `unit`: paper 000 Section II.A.3's smax(y) = (sqrt(y^2 + 1) + y) / 2 taken
+// on y / unit (the paper's mm^2) and scaled back, unit smax(y / unit) = (sqrt(y^2 + unit^2) + y) / 2
+double Smax(double y, double unit) { return (std::sqrt(y * y + unit * unit) + y) / 2; }
 
 bool HasDelays(const CylinderConfig& c) { return c.delay_open > 0 || c.delay_close > 0; }
 
@@ -127,8 +128,8 @@ PortOpenings ProportionalValveAreas(const ChamberConfig& k, double u, double dea
   double supply_seal = k.u_supply_seal, exhaust_seal = k.u_exhaust_seal;
   if (deadband > 0) supply_seal += deadband, exhaust_seal -= deadband;
   PortOpenings a;
-  a.supply = k.leak_area_supply + unit * Smax(((u - supply_seal) * k.area_gain - k.leak_area_supply) / unit);
-  a.exhaust = k.leak_area_exhaust + unit * Smax(((exhaust_seal - u) * k.area_gain - k.leak_area_exhaust) / unit);
+  a.supply = k.leak_area_supply + Smax((u - supply_seal) * k.area_gain - k.leak_area_supply, unit);
+  a.exhaust = k.leak_area_exhaust + Smax((exhaust_seal - u) * k.area_gain - k.leak_area_exhaust, unit);
   return a;
 }
 
