@@ -59,6 +59,22 @@ TEST(Uncertainty, IdenticalColumnsAreNamedAsUndetermined) {
   EXPECT_EQ(u.poorly_determined[0], "");
 }
 
+TEST(Uncertainty, EveryUndeterminedDirectionIsNamed) {
+  // two pairs of columns, one identical, one within 1e-8 of identical: two null directions (eigenvalues
+  // about 1e-32 and 1e-16 of the largest), both named whichever comes out smallest
+  Eigen::MatrixXd J(50, 5);
+  for (int i = 0; i < 50; ++i) {
+    J.row(i) << 1.0, std::sin(i), std::sin(i), std::cos(0.3 * i), std::cos(0.3 * i) + 1e-8 * std::sin(2.1 * i);
+  }
+  Eigen::VectorXd r = Eigen::VectorXd::LinSpaced(50, -1, 1);
+  Uncertainty u = EstimateUncertainty(J, r, {"a", "C", "B", "D", "E"}, {1, 1, 1, 1, 1}, {1, 1, 1, 1, 1}, {});
+  EXPECT_THAT(u.error, HasSubstr("C, B"));
+  EXPECT_THAT(u.error, HasSubstr("D, E"));
+  EXPECT_THAT(u.poorly_determined[1], HasSubstr("only a combination of C, B"));
+  EXPECT_THAT(u.poorly_determined[4], HasSubstr("only a combination of D, E"));
+  EXPECT_EQ(u.poorly_determined[0], "");
+}
+
 TEST(Uncertainty, StrongCorrelationAndLargeErrorAreFlagged) {
   // two nearly collinear regressors: corr of the estimates close to -1
   const int n = 100;

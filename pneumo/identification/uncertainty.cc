@@ -104,18 +104,23 @@ Uncertainty EstimateUncertainty(const Eigen::MatrixXd& J, const Eigen::VectorXd&
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(Js.transpose() * Js);
   const Eigen::VectorXd lambda = eigen.eigenvalues();  // ascending
   if (lambda[0] <= 1e-12 * lambda[p - 1]) {
-    // name the parameters that make up the undetermined direction
-    const Eigen::VectorXd direction = eigen.eigenvectors().col(0);
-    std::string partners;
-    for (int j = 0; j < p; ++j) {
-      if (std::fabs(direction[j]) > 0.1) partners += (partners.empty() ? "" : ", ") + names[j];
-    }
-    for (int j = 0; j < p; ++j) {
-      if (std::fabs(direction[j]) > 0.1 && out.poorly_determined[j].empty()) {
-        out.poorly_determined[j] = "not determined by the data: only a combination of " + partners + " is";
+    // name the parameters that make up each undetermined direction (every eigenvalue that small: which
+    // of several comes out smallest can turn on round-off)
+    std::string groups;
+    for (int k = 0; k < p && lambda[k] <= 1e-12 * lambda[p - 1]; ++k) {
+      const Eigen::VectorXd direction = eigen.eigenvectors().col(k);
+      std::string partners;
+      for (int j = 0; j < p; ++j) {
+        if (std::fabs(direction[j]) > 0.1) partners += (partners.empty() ? "" : ", ") + names[j];
       }
+      for (int j = 0; j < p; ++j) {
+        if (std::fabs(direction[j]) > 0.1 && out.poorly_determined[j].empty()) {
+          out.poorly_determined[j] = "not determined by the data: only a combination of " + partners + " is";
+        }
+      }
+      groups += groups.empty() ? partners + " separately" : ", nor " + partners;
     }
-    out.error = "the data do not determine " + partners + " separately";
+    out.error = "the data do not determine " + groups;
     return out;
   }
   const Eigen::MatrixXd bread =
