@@ -152,16 +152,13 @@ TEST(ChamberStep, CompressedChamberSettlesAboveSupplyWhereItsBackFlowCarriesTheC
 TEST(ChamberStep, Log1pSeriesIsWithinTwoUlpOfTheLibrary) {
   // the series of Log1p on |x| <= 1/64 against std::log1p (correctly rounded to within 1 ulp), and
   // std::log1p itself beyond
-  int checked = 0;
   for (int i = -4000; i <= 4000; ++i) {
     for (double scale : {1.0, 1e-3, 1e-9}) {
       double x = i / 4000.0 / 64 * scale;
       double exact = std::log1p(x);
       EXPECT_LE(std::fabs(Log1p(x) - exact), 2 * std::numeric_limits<double>::epsilon() * std::fabs(exact)) << x;
-      ++checked;
     }
   }
-  EXPECT_EQ(checked, 3 * 8001);
   for (double x : {1.0 / 63, -0.5, 3.0}) EXPECT_EQ(Log1p(x), std::log1p(x)) << x;
 }
 

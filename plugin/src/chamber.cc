@@ -482,7 +482,7 @@ double SupplyMassOverStep(const ChamberModel& k, const PortOpenings& o0, const P
                           double p_other1, double h) {
   // the net mass from the pressure change the flow made (the compression's share removed)
   double v0 = volume.At(0), v1 = volume.At(h), exponent = k.work_factor * k.polytropic_index;
-  double compressed = v1 != v0 ? p0 * std::exp(-exponent * std::log1p((v1 - v0) / v0)) : p0;
+  double compressed = v1 != v0 ? p0 * std::exp(-exponent * Log1p((v1 - v0) / v0)) : p0;  // as the step takes it
   double net = (p1 - compressed) * volume.At(h / 2) / (k.polytropic_index * k.gas_rt);
   // each part by the trapezoid rule
   auto supply = [&](const PortOpenings& o, double p) {
