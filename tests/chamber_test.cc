@@ -9,6 +9,7 @@
 
 #include "chamber.h"
 #include "config.h"
+#include "shipped_config.h"
 #include "test_util.h"
 #include "valves.h"
 
@@ -18,19 +19,6 @@ namespace {
 using testing::AttachedModel;
 using testing::MujocoTest;
 using testing::ShippedModel;
-
-// the configuration text of a shipped rig
-CylinderConfig ShippedConfig(const std::string& file) {
-  char error[1000] = "";
-  mjModel* m = mj_loadXML(ShippedModel(file).c_str(), nullptr, error, sizeof(error));
-  EXPECT_NE(m, nullptr) << error;
-  int id = mj_name2id(m, mjOBJ_TEXT, "pneumatic:cyl");
-  std::string parse_error;
-  std::optional<CylinderConfig> c = ParseCylinderConfig("cyl", m->text_data + m->text_adr[id], &parse_error);
-  mj_deleteModel(m);
-  EXPECT_TRUE(c) << parse_error;
-  return *c;
-}
 
 // root of the chamber's net mass flow, by bisection: paper 000 eq. (2) steady state
 double SteadyStatePressure(const ChamberModel& k, const PortOpenings& o) {

@@ -342,22 +342,20 @@ void ApplyMatrixFunction(double (*phi)(double), double (*phi_slope)(double), con
   }
 }
 
-// the linearized step holds where the flow's slope changes by at most this fraction over the step
-constexpr double kMaxSlopeChange = 0.25;
-
 // LinearizedPressureStep for n chambers, a constant
+// (the valve openings at the start and the end of the step, and whether they are held: no switching inside)
 template <int n>
-void LinearizedStep(const ChamberModel k[], const PortSchedule* ports[], const VolumePath volume[], double piston_leak,
-                    const double p0[], double h, double p1[], bool done[]) {
+void LinearizedStep(const ChamberModel k[], const PortOpenings open_start[], const PortOpenings open_end[],
+                    const bool held[], const VolumePath volume[], double piston_leak, const double p0[], double h,
+                    double p1[], bool done[]) {
   const bool coupled = n == 2 && piston_leak > 0;
   if (!coupled) piston_leak = 0;
   // a valve switching within the step: the adaptive step splits there
   bool ok[2] = {true, true};
-  for (int i = 0; i < n; ++i) ok[i] = ports[i]->breakpoints().empty();
+  for (int i = 0; i < n; ++i) ok[i] = held[i];
   // the polytropic compression as a constant rate, -alpha n ln(V(h)/V(0)) / h, so that a sealed chamber
   // follows p V^(alpha n) exactly; the flow term with the volume at mid-step
   double v_mid[2] = {1, 1}, compression[2] = {0, 0}, compressed[2] = {0, 0};
-  PortOpenings open_start[2], open_end[2];
   for (int i = 0; i < n; ++i) {
     double v_start = volume[i].At(0), v_end = volume[i].At(h), exponent = k[i].work_factor * k[i].polytropic_index;
     v_mid[i] = volume[i].At(h / 2);
@@ -367,7 +365,6 @@ void LinearizedStep(const ChamberModel k[], const PortSchedule* ports[], const V
       compression[i] = log_ratio / h;
       compressed[i] = p0[i] * std::exp(log_ratio);
     }
-    open_start[i] = ports[i]->At(0), open_end[i] = ports[i]->At(h);
   }
   // exponential Rosenbrock-Euler: p + h phi1(B h) rate, B the slope (exact where the flow is linear)
   // D = n r T / V at mid-step, the pressure rate per unit of mass flow
@@ -412,7 +409,7 @@ void LinearizedStep(const ChamberModel k[], const PortSchedule* ports[], const V
     const double tolerance = coupled ? std::min(k[0].tolerance, k[1].tolerance) : k[i].tolerance;
     double error = std::max(std::fabs(h * correction[i]), std::fabs(h / 2 * missed[i]));
     double b_start = compression[i] - start.b[i][i], b_end = compression[i] - at_end.b[i][i];
-    ok[i] = ok[i] && error <= tolerance && std::fabs(b_end - b_start) <= kMaxSlopeChange * std::max(b_start, b_end);
+    ok[i] = ok[i] && error <= tolerance && std::fabs(b_end - b_start) <= kLinearizedMaxSlopeChange * std::max(b_start, b_end);
   }
   if (coupled) ok[0] = ok[1] = ok[0] && ok[1];
   for (int i = 0; i < n; ++i) {
@@ -425,11 +422,22 @@ void LinearizedStep(const ChamberModel k[], const PortSchedule* ports[], const V
 
 void LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* ports[], const VolumePath volume[],
                             double piston_leak, const double p0[], double h, double p1[], bool done[]) {
-  if (n == 2) {
-    LinearizedStep<2>(k, ports, volume, piston_leak, p0, h, p1, done);
-  } else {
-    LinearizedStep<1>(k, ports, volume, piston_leak, p0, h, p1, done);
+  PortOpenings open_start[2], open_end[2];
+  bool held[2];
+  for (int i = 0; i < n; ++i) {
+    open_start[i] = ports[i]->At(0), open_end[i] = ports[i]->At(h);
+    held[i] = ports[i]->breakpoints().empty();
   }
+  if (n == 2) {
+    LinearizedStep<2>(k, open_start, open_end, held, volume, piston_leak, p0, h, p1, done);
+  } else {
+    LinearizedStep<1>(k, open_start, open_end, held, volume, piston_leak, p0, h, p1, done);
+  }
+}
+
+void LinearizedChamberStep(const ChamberModel& k, const PortOpenings& open_start, const PortOpenings& open_end,
+                           bool held, const VolumePath& volume, double p0, double h, double* p1, bool* done) {
+  LinearizedStep<1>(&k, &open_start, &open_end, &held, &volume, 0, &p0, h, p1, done);
 }
 
 void PistonOrificeExchange(const ChamberModel k[2], const double volume[2], double area, double t, double p[2]) {

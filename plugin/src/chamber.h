@@ -80,6 +80,9 @@ double PhysicalPressureStep(const ChamberModel& k, const PortSchedule& ports, co
 // cheaper than std::log1p and within 2 ulp of it (tests/chamber_test); std::log1p beyond
 double Log1p(double x);
 
+// the linearized step holds where the flow's slope changes by at most this fraction over the step
+constexpr double kLinearizedMaxSlopeChange = 0.25;
+
 // The default step: pressures (Pa abs) of n chambers (1, or 2: a cylinder's P and N,
 // coupled by the leak across the piston when piston_leak > 0, else each on its own) at
 // the end of a step of length h from p0. Two chambers on their own step exactly as each
@@ -98,6 +101,11 @@ double Log1p(double x);
 // (coupled chambers are taken or refused together).
 void LinearizedPressureStep(int n, const ChamberModel k[], const PortSchedule* ports[], const VolumePath volume[],
                             double piston_leak, const double p0[], double h, double p1[], bool done[]);
+// LinearizedPressureStep(1, ...) of a chamber whose valve openings are given: open_start at the start of the
+// step, open_end at its end, and held if no valve switches inside it (ports.At(0), ports.At(h) and
+// ports.breakpoints().empty() of its PortSchedule)
+void LinearizedChamberStep(const ChamberModel& k, const PortOpenings& open_start, const PortOpenings& open_end,
+                           bool held, const VolumePath& volume, double p0, double h, double* p1, bool* done);
 
 // An orifice leak of `area` across the piston (leak_law of k[0]) alone over a time t, chambers at fixed
 // volumes: dp_P/dt = -a_P Q(p_P, p_N), dp_N/dt = a_N Q, a = n r T / V. Backward Euler substeps in the mass

@@ -256,6 +256,15 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
   c.info_.p_exhaust = cfg.p_exhaust;
   c.info_.x_mid = cfg.x_mid;
   for (int k = 0; k < 2; ++k) c.chamber_model_[k] = MakeChamberModel(cfg, k);
+  // the chambers the batched linearized step takes: each on its own, physical and isothermal, straight
+  // behind its valve, with nothing but the linearized step's own terms (Step takes every other case)
+  bool batched = cfg.step == ChamberStep::kLinearized && cfg.thermal_model != ThermalModel::kEnergy &&
+                 !(cfg.piston_leak_conductance > 0) && !(cfg.piston_leak_area > 0);
+  for (int k = 0; k < 2; ++k) {
+    batched = batched && cfg.chamber[k].model == PressureModel::kPhysical && !(cfg.chamber[k].line_volume > 0) &&
+              Batchable(c.chamber_model_[k]);
+  }
+  c.batched_ = batched;
   return c;
 }
 
@@ -306,10 +315,11 @@ double Cylinder::LargestVolume() const {
   return v;
 }
 
-void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const double* supply_pressure,
-                    double* supply_drawn) const {
+double Cylinder::StartStep(const mjModel* m, mjData* d, const PassInputs& pass, ValveInputs* valves_out,
+                           double p0[2]) const {
   const double h = m->opt.timestep;
-  ValveInputs valves = ReadValves(m, d, pass.zero_commands);
+  ValveInputs& valves = *valves_out;
+  valves = ReadValves(m, d, pass.zero_commands);
   for (int i = 0; i < 4; ++i) {
     if (state_id_[i] >= 0) ActDot(m, d, state_id_[i]) = (ValveStateAtEnd(config_, i, valves) - valves.state[i]) / h;
   }
@@ -325,18 +335,6 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
     ProportionalSignal(config_, ch, valves).DelayState(h, end);
     for (int j = 0; j < 2; ++j) ActDot(m, d, extra_state_id_[DelaySlot(ch) + j]) = (end[j] - valves.delay[ch][j]) / h;
   }
-  // the chambers' models; a reservoir's pressure at the start of the step on the supply ports (copies
-  // made only then, in storage left uninitialised otherwise: a ChamberModel is large, and the common
-  // case needs none)
-  const ChamberModel* models = chamber_model_;
-  InlineVector<ChamberModel, 2> fed;
-  if (supply_pressure) {
-    for (int k = 0; k < 2; ++k) fed.push_back(chamber_model_[k]), fed[k].p_supply = *supply_pressure;
-    models = fed.begin();
-  }
-
-  // act_dot of each chamber: (p(t + h) - p(t)) / h, or dp/dt for step=explicit
-  double p0[2], p1[2] = {0, 0}, rate[2];
   for (int k = 0; k < 2; ++k) p0[k] = Act(m, d, info_.chamber_actuator[k]) + config_.p_atm;
   // MuJoCo's Euler and implicit integrators move the piston over the step with the velocity at its
   // end; the chamber steps follow that path (plain explicit Euler uses the velocity at the start)
@@ -354,6 +352,67 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
     int id = extra_state_id_[kBristle];
     ActDot(m, d, id) = BristleMeanRate(Act(m, d, id), end_rate, h);
   }
+  return x_rate;
+}
+
+void Cylinder::BeginStep(const mjModel* m, mjData* d, const PassInputs& pass, BatchedChamber chambers[2]) const {
+  const double h = m->opt.timestep;
+  ValveInputs valves;
+  double p0[2];
+  const double x_rate = StartStep(m, d, pass, &valves, p0);
+  // a valve per chamber without a lag or a dead time holds its openings over the step: PortSchedule's
+  // own case, taken without building one
+  const bool held_voltage = config_.valve == ValveKind::kProportionalPerChamber &&
+                            !(config_.CommandDeadTime() > 0 || config_.spool_time_constant > 0);
+  for (int k = 0; k < 2; ++k) {
+    BatchedChamber& c = chambers[k];
+    c.model = &chamber_model_[k];
+    if (held_voltage) {
+      c.open_start = c.open_end = ProportionalValveAreas(config_.chamber[k], valves.command[k], config_.deadband_voltage);
+      c.held = true;
+    } else {
+      const PortSchedule ports(config_, k, valves);
+      c.open_start = ports.At(0), c.open_end = ports.At(h);
+      c.held = ports.breakpoints().empty();
+    }
+    c.volume = Volume(m, d, k, x_rate);
+    c.p0 = p0[k];
+    c.p1 = p0[k];
+    c.done = false;
+  }
+}
+
+void Cylinder::EndStep(const mjModel* m, mjData* d, const PassInputs& pass, const BatchedChamber chambers[2]) const {
+  const double h = m->opt.timestep;
+  for (int k = 0; k < 2; ++k) {
+    const BatchedChamber& c = chambers[k];
+    double p1 = c.p1;
+    if (!c.done) {
+      // the adaptive implicit step where the linearized one asks for it, as Step takes it
+      const PortSchedule ports(config_, k, ReadValves(m, d, pass.zero_commands));
+      p1 = PhysicalPressureStep(chamber_model_[k], ports, c.volume, c.p0, h);
+    }
+    ActDot(m, d, info_.chamber_actuator[k]) = (p1 - c.p0) / h;
+  }
+}
+
+void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const double* supply_pressure,
+                    double* supply_drawn) const {
+  const double h = m->opt.timestep;
+  ValveInputs valves;
+  double p0[2], p1[2] = {0, 0}, rate[2];
+  double x_rate = StartStep(m, d, pass, &valves, p0);
+  // the chambers' models; a reservoir's pressure at the start of the step on the supply ports (copies
+  // made only then, in storage left uninitialised otherwise: a ChamberModel is large, and the common
+  // case needs none)
+  const ChamberModel* models = chamber_model_;
+  InlineVector<ChamberModel, 2> fed;
+  if (supply_pressure) {
+    for (int k = 0; k < 2; ++k) fed.push_back(chamber_model_[k]), fed[k].p_supply = *supply_pressure;
+    models = fed.begin();
+  }
+
+  // act_dot of each chamber: (p(t + h) - p(t)) / h, or dp/dt for step=explicit
   const double leak = config_.piston_leak_conductance;
   bool physical[2];
   for (int k = 0; k < 2; ++k) physical[k] = config_.chamber[k].model == PressureModel::kPhysical;

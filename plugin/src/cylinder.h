@@ -11,6 +11,7 @@
 #include <mujoco/mujoco.h>
 
 #include "chamber.h"
+#include "chamber_batch.h"
 #include "config.h"
 #include "pneumatic/pneumatic.h"
 #include "roles.h"
@@ -63,6 +64,13 @@ class Cylinder {
   // and adds the mass its supply ports draw over the step (kg) to *supply_drawn.
   void Step(const mjModel* m, mjData* d, const PassInputs& pass, const double* supply_pressure = nullptr,
             double* supply_drawn = nullptr) const;
+  // Step in two halves around LinearizedChambers, for a cylinder whose chambers it takes (Batched(); not
+  // fed by a reservoir): BeginStep does what Step does before the chambers' step and fills their inputs;
+  // EndStep, after LinearizedChambers ran on them, writes their act_dot, with the adaptive step where the
+  // linearized one asked for it. The act_dot written are Step's, bit for bit.
+  bool Batched() const { return batched_; }
+  void BeginStep(const mjModel* m, mjData* d, const PassInputs& pass, BatchedChamber chambers[2]) const;
+  void EndStep(const mjModel* m, mjData* d, const PassInputs& pass, const BatchedChamber chambers[2]) const;
   // largest total volume of the two chambers (m^3): a reservoir feeding the cylinder must exceed it
   double LargestVolume() const;
   // Makes the force of each actuator a fixed gain on its act or ctrl: +A_P, -A_N on
@@ -73,6 +81,10 @@ class Cylinder {
 
  private:
   ValveInputs ReadValves(const mjModel* m, const mjData* d, bool zero_commands) const;
+  // the start of every step: reads the valves (*valves) and writes the act_dot of the valve states, the
+  // delay lines and the LuGre bristles; the chambers' pressures p0 (Pa abs); returns the piston's rate
+  // that moves the chambers' volumes over the step
+  double StartStep(const mjModel* m, mjData* d, const PassInputs& pass, ValveInputs* valves, double p0[2]) const;
   // the extra-state slot of state x1 (x2: the next) of command channel ch's dead-time delay line
   int DelaySlot(int channel) const;
   VolumePath Volume(const mjModel* m, const mjData* d, int chamber, double x_rate) const;
@@ -91,6 +103,7 @@ class Cylinder {
   static constexpr int kMaxExtraStates = 12;
   int extra_state_id_[kMaxExtraStates] = {-1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1};  // role table rows of Role::kState
   bool has_extra_states_ = false;
+  bool batched_ = false;                  // see Batched()
   int dof_ = -1;                          // the joint's dof when the transmission is a slide or hinge joint
   double static_friction_ = 0;            // transmission frictionloss in actuator units
   std::vector<std::pair<int, ActuatorRole>> actuators_;

@@ -32,6 +32,7 @@
 #include <mutex>
 #include <sstream>
 
+#include "chamber_batch.h"
 #include "cylinder.h"
 #include "pneumatic/pneumatic.h"
 #include "reservoir.h"
@@ -443,6 +444,37 @@ void StepWithReservoirs(const CompiledModel& model, const mjModel* m, mjData* d,
   }
 }
 
+// every cylinder's act_dot when no reservoir feeds them: the chambers LinearizedChambers takes, all
+// together between each cylinder's BeginStep and EndStep; every other cylinder by its own Step
+void StepCylinders(const CompiledModel& model, const mjModel* m, mjData* d, const PassInputs& pass) {
+  int batched = 0;
+  for (const Cylinder& c : model.cylinders) batched += c.Batched();
+  if (batched == 0) {
+    for (const Cylinder& c : model.cylinders) c.Step(m, d, pass);
+    return;
+  }
+  // the chambers' inputs and results in the pass's stack (inside the caller's mjMARKSTACK); BeginStep
+  // writes every field
+  const int words = static_cast<int>((2 * batched * sizeof(BatchedChamber) + sizeof(mjtNum) - 1) / sizeof(mjtNum));
+  BatchedChamber* chambers = reinterpret_cast<BatchedChamber*>(mj_stackAlloc(d, words));
+  BatchedChamber* next = chambers;
+  for (const Cylinder& c : model.cylinders) {
+    if (c.Batched()) {
+      c.BeginStep(m, d, pass, next);
+      next += 2;
+    } else {
+      c.Step(m, d, pass);
+    }
+  }
+  LinearizedChambers(chambers, 2 * batched, m->opt.timestep);
+  next = chambers;
+  for (const Cylinder& c : model.cylinders) {
+    if (!c.Batched()) continue;
+    c.EndStep(m, d, pass, next);
+    next += 2;
+  }
+}
+
 // every cylinder's act_dot for this forward pass
 void StepPass(const CompiledModel& model, const mjModel* m, mjData* d) {
   PassInputs pass;
@@ -461,7 +493,7 @@ void StepPass(const CompiledModel& model, const mjModel* m, mjData* d) {
     pass.end_velocity = velocity;
   }
   if (model.reservoirs.empty()) {
-    for (const Cylinder& c : model.cylinders) c.Step(m, d, pass);
+    StepCylinders(model, m, d, pass);
   } else {
     StepWithReservoirs(model, m, d, pass);
   }

@@ -75,12 +75,23 @@ const ThinPlateTable* ThinPlateTableFor(double kappa) {
   table->r_min = 1 / theta;
   table->step = (1 - table->r_min) / ThinPlateTable::kIntervals;
   table->step_inverse = 1 / table->step;
+  // f and df/dr at the nodes, then each interval's cubic Hermite polynomial in monomial form
+  double f[ThinPlateTable::kIntervals + 1], slope[ThinPlateTable::kIntervals + 1];
   for (int i = 0; i <= ThinPlateTable::kIntervals; ++i) {
     double r = i == ThinPlateTable::kIntervals ? 1.0 : table->r_min + i * table->step;
     double g = 0, dg = 0;
     SmoothFactorSquared(kappa, r, &g, &dg);
-    table->f[i] = std::sqrt(g);
-    table->slope[i] = dg / (2 * table->f[i]);
+    f[i] = std::sqrt(g);
+    slope[i] = dg / (2 * f[i]);
+  }
+  for (int i = 0; i < ThinPlateTable::kIntervals; ++i) {
+    // p(u) = f0 h00 + s m0 h10 + f1 h01 + s m1 h11 with s the step and m the slopes
+    double f0 = f[i], f1 = f[i + 1], m0 = table->step * slope[i], m1 = table->step * slope[i + 1];
+    double* c = table->cubic[i].c;
+    c[0] = f0;
+    c[1] = m0;
+    c[2] = 3 * (f1 - f0) - 2 * m0 - m1;
+    c[3] = 2 * (f0 - f1) + m0 + m1;
   }
   return table.get();
 }

@@ -15,15 +15,20 @@ namespace pneumatic {
 
 // The thin-plate law's pressure-ratio factor sqrt(r^(2/k) - r^((k+1)/k)) on the
 // subsonic range r in [1/theta, 1], written sqrt(1 - r) f(r) with f smooth, and f
-// tabulated for cubic Hermite interpolation (the project's own evaluation: within
-// 5e-14 of the formula where the formula is exact, tests/flow_valve_test; nearer
-// r = 1 the formula's own cancellation dominates, and cheaper than its two powers).
+// interpolated by cubic Hermite polynomials between tabulated values and slopes (the
+// project's own evaluation: within 5e-14 of the formula where the formula is exact,
+// tests/flow_valve_test; nearer r = 1 the formula's own cancellation dominates, and
+// cheaper than its two powers). Each interval's cubic is stored by its coefficients in
+// u = (r - r_i) / step, so an evaluation is two short Horner sums.
 // One table per heat capacity ratio, built at attach time and shared.
 struct ThinPlateTable {
   static constexpr int kIntervals = 512;
   double r_min = 0, step = 0, step_inverse = 0;
-  double f[kIntervals + 1] = {};      // f at r_min + i step
-  double slope[kIntervals + 1] = {};  // df/dr there
+  // f(r_i + u step) = c[0] + u (c[1] + u (c[2] + u c[3])) on interval i
+  struct Cubic {
+    double c[4];
+  };
+  Cubic cubic[kIntervals] = {};
   // sqrt(r^(2/k) - r^((k+1)/k)) and its derivative by r, for r in [r_min, 1]
   double Shape(double r, double* d_shape) const;
 };
@@ -67,14 +72,13 @@ inline double MassFlow(const FlowLawConstants& law, double opening, double p_fro
 // per chamber and step, can inline them.
 
 inline double ThinPlateTable::Shape(double r, double* d_shape) const {
-  // cubic Hermite interpolation of f on the interval holding r
+  // the cubic of the interval holding r, and its derivative by r
   double x = (r - r_min) * step_inverse;
   int i = std::clamp(static_cast<int>(x), 0, kIntervals - 1);
-  double u = x - i, u2 = u * u, u3 = u2 * u;
-  double h00 = 2 * u3 - 3 * u2 + 1, h10 = u3 - 2 * u2 + u, h01 = -2 * u3 + 3 * u2, h11 = u3 - u2;
-  double value = h00 * f[i] + h10 * step * slope[i] + h01 * f[i + 1] + h11 * step * slope[i + 1];
-  double d_value = ((6 * u2 - 6 * u) * (f[i] - f[i + 1])) * step_inverse + (3 * u2 - 4 * u + 1) * slope[i] +
-                   (3 * u2 - 2 * u) * slope[i + 1];
+  double u = x - i;
+  const double* c = cubic[i].c;
+  double value = c[0] + u * (c[1] + u * (c[2] + u * c[3]));
+  double d_value = (c[1] + u * (2 * c[2] + u * (3 * c[3]))) * step_inverse;
   // sqrt(1 - r) f(r): the square root carries the infinite slope at r = 1
   double t = std::max(1 - r, 0.0), root = std::sqrt(t);
   *d_shape = t > 0 ? root * d_value - value / (2 * root) : 0;
