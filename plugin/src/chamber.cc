@@ -1,5 +1,7 @@
 #include "chamber.h"
 
+#include "exponential.h"
+
 #include <algorithm>
 #include <cmath>
 #include <complex>
@@ -232,7 +234,7 @@ void Phi1And2(double x, double* phi1, double* phi2) {
     *phi1 = 1 + x / 2 + x * x / 6, *phi2 = 0.5 + x / 6 + x * x / 24;
     return;
   }
-  double e = std::expm1(x);
+  double e = exponential::Expm1(x);
   *phi1 = e / x, *phi2 = (e - x) / (x * x);
 }
 double Phi1(double x) {
@@ -363,7 +365,7 @@ void LinearizedStep(const ChamberModel k[], const PortOpenings open_start[], con
     if (v_end != v_start) {
       double log_ratio = -exponent * Log1p((v_end - v_start) / v_start);  // ln (V(0)/V(h))^(alpha n)
       compression[i] = log_ratio / h;
-      compressed[i] = p0[i] * std::exp(log_ratio);
+      compressed[i] = p0[i] * exponential::Exp(log_ratio);
     }
   }
   // exponential Rosenbrock-Euler: p + h phi1(B h) rate, B the slope (exact where the flow is linear)
@@ -490,7 +492,7 @@ double SupplyMassOverStep(const ChamberModel& k, const PortOpenings& o0, const P
                           double p_other1, double h) {
   // the net mass from the pressure change the flow made (the compression's share removed)
   double v0 = volume.At(0), v1 = volume.At(h), exponent = k.work_factor * k.polytropic_index;
-  double compressed = v1 != v0 ? p0 * std::exp(-exponent * Log1p((v1 - v0) / v0)) : p0;  // as the step takes it
+  double compressed = v1 != v0 ? p0 * exponential::Exp(-exponent * Log1p((v1 - v0) / v0)) : p0;  // as the step takes it
   double net = (p1 - compressed) * volume.At(h / 2) / (k.polytropic_index * k.gas_rt);
   // each part by the trapezoid rule
   auto supply = [&](const PortOpenings& o, double p) {

@@ -5,8 +5,10 @@
 #include <cstdint>
 
 // GCC notes that passing vectors of four doubles by value would differ between builds with and without
-// AVX: every function here that does so is internal to this file
+// AVX: every function here that does so is internal to this file (or inline, exponential.h)
 #pragma GCC diagnostic ignored "-Wpsabi"
+
+#include "exponential.h"
 
 namespace pneumatic {
 
@@ -20,7 +22,7 @@ namespace {
 // lane-wise IEEE operation the scalar code does, in the same order (no fused multiply-adds: AVX2 alone
 // does not enable them); a branch of the scalar code becomes both sides and a select (Select(m, a, b):
 // a where m, else b); std::min/max/clamp/fabs are written out with their exact semantics (NaN and the
-// sign of zero included); the transcendental functions are the C library's, lane by lane.
+// sign of zero included); the exponentials are exponential.h's, in the lanes.
 constexpr int kLanes = 4;
 using Lanes = double __attribute__((vector_size(8 * kLanes)));
 using Mask = std::int64_t __attribute__((vector_size(8 * kLanes)));
@@ -140,8 +142,7 @@ struct LinearSystem {
 
 // Phi1And2 (chamber.cc): the series near 0, else from one expm1 per lane
 [[gnu::always_inline]] inline void Phi1And2(Lanes x, Lanes* phi1, Lanes* phi2) {
-  Lanes e;
-  for (int j = 0; j < kLanes; ++j) e[j] = std::fabs(x[j]) < 1e-3 ? 0.0 : std::expm1(x[j]);
+  Lanes e = exponential::Expm1(x);
   Mask series = Fabs(x) < 1e-3;
   *phi1 = Select(series, 1 + x / 2 + x * x / 6, e / x);
   *phi2 = Select(series, 0.5 + x / 6 + x * x / 24, (e - x) / (x * x));
@@ -172,7 +173,7 @@ __attribute__((target("avx2"))) void StepLanes(BatchedChamber* lane[kLanes], dou
   auto volume_at = [&](double tau) { return dead_volume + area * Clamp(swept + swept_rate * tau, Splat(0.0), stroke); };
   const Lanes v_start = volume_at(0), v_end = volume_at(h), v_mid = volume_at(h / 2);
   // the polytropic compression as a constant rate, -alpha n ln(V(h)/V(0)) / h, with Log1p's series in
-  // the lanes (std::log1p beyond |x| = 1/64, lane by lane) and std::exp lane by lane
+  // the lanes (std::log1p beyond |x| = 1/64, lane by lane)
   const Lanes x = (v_end - v_start) / v_start;
   Lanes log1p = x * (1 - x * (1.0 / 2 - x * (1.0 / 3 - x * (1.0 / 4 - x * (1.0 / 5 - x * (1.0 / 6 - x * (1.0 / 7 -
                 x * (1.0 / 8 - x * (1.0 / 9 - x / 10)))))))));
@@ -182,10 +183,7 @@ __attribute__((target("avx2"))) void StepLanes(BatchedChamber* lane[kLanes], dou
   const Lanes log_ratio = -exponent * log1p;
   const Mask moved = v_end != v_start;
   const Lanes compression = Select(moved, log_ratio / h, Splat(0.0));
-  Lanes compressed = p0;
-  for (int j = 0; j < kLanes; ++j) {
-    if (moved[j]) compressed[j] = p0[j] * std::exp(log_ratio[j]);
-  }
+  const Lanes compressed = Select(moved, p0 * exponential::Exp(log_ratio), p0);
   // D = n r T / V at mid-step, the pressure rate per unit of mass flow
   const Lanes gain = n * rt / v_mid;
   // exponential Rosenbrock-Euler with the ETD2RK correction, as LinearizedStep
