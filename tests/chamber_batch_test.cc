@@ -1,6 +1,7 @@
 // The batched linearized chamber step (four chambers in vector lanes) against the scalar
 // LinearizedPressureStep, chamber by chamber: the same result bit for bit, whatever the lanes
-// beside it hold.
+// beside it hold; and its one-by-one form (processors without AVX2) against both. (Without AVX2
+// here, the lanes are not run and only the one-by-one form is compared.)
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -84,8 +85,13 @@ TEST(ChamberBatch, EveryChamberStepsBitForBitAsTheScalarStep) {
       batch[i].volume = cases[i].volume;
       batch[i].p0 = cases[i].p0;
     }
-    LinearizedChambers(batch.data(), count, h);
+    // in the lanes (where this processor has them) and one by one
+    std::vector<BatchedChamber> one_by_one = batch;
+    LinearizedChambers(batch.data(), count, h, VectorLanesAvailable());
+    LinearizedChambers(one_by_one.data(), count, h, false);
     for (int i = 0; i < count; ++i) {
+      ASSERT_EQ(one_by_one[i].done, batch[i].done);
+      if (batch[i].done) ASSERT_TRUE(SameBits(one_by_one[i].p1, batch[i].p1));
       const PortSchedule* schedule = &schedules[i];
       double p1 = 0;
       bool done = false;

@@ -212,11 +212,19 @@ __attribute__((target("avx2"))) void StepLanes(BatchedChamber* lane[kLanes], dou
 
 }  // namespace
 
+bool VectorLanesAvailable() {
+  // the vector lanes need AVX2 (the x86-64 processors of the last decade)
+  static const bool available = __builtin_cpu_supports("avx2");
+  return available;
+}
+
 void LinearizedChambers(BatchedChamber chambers[], int count, double h) {
-  // the vector lanes need AVX2 (the x86-64 processors of the last decade); without it, each chamber
-  // by the scalar step, with the same result
-  static const bool lanes = __builtin_cpu_supports("avx2");
-  if (!lanes) {
+  LinearizedChambers(chambers, count, h, VectorLanesAvailable());
+}
+
+void LinearizedChambers(BatchedChamber chambers[], int count, double h, bool in_lanes) {
+  // without AVX2, each chamber by the scalar step, with the same result
+  if (!in_lanes) {
     for (int i = 0; i < count; ++i) {
       BatchedChamber& c = chambers[i];
       LinearizedChamberStep(*c.model, c.open_start, c.open_end, c.held, c.volume, c.p0, h, &c.p1, &c.done);

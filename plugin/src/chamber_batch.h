@@ -26,8 +26,12 @@ struct BatchedChamber {
 // leak to the atmosphere (the laminar leak is taken); a chamber on its own (no leak across the piston)
 bool Batchable(const ChamberModel& k);
 
-// LinearizedPressureStep(1, ...) for each of chambers[0, count), with the timestep h (s)
+// LinearizedPressureStep(1, ...) for each of chambers[0, count), with the timestep h (s): in vector
+// lanes where the processor has AVX2, else one by one
 void LinearizedChambers(BatchedChamber chambers[], int count, double h);
+// the same, in lanes or one by one as asked (in_lanes needs AVX2: VectorLanesAvailable())
+bool VectorLanesAvailable();
+void LinearizedChambers(BatchedChamber chambers[], int count, double h, bool in_lanes);
 
 }  // namespace pneumatic
 
