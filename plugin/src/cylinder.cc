@@ -265,6 +265,15 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
               Batchable(c.chamber_model_[k]);
   }
   c.batched_ = batched;
+  // a valve per chamber without a lag or a dead time holds its openings over the step (PortSchedule's own
+  // case); with no valve states and no extra states, its two voltages are all a step reads besides the
+  // chambers and the piston (BeginStep)
+  c.held_voltage_ = cfg.valve == ValveKind::kProportionalPerChamber &&
+                    !(cfg.CommandDeadTime() > 0 || cfg.spool_time_constant > 0);
+  c.voltages_only_ = c.held_voltage_ && !c.has_extra_states_ && cfg.friction_model != FrictionModel::kLuGre &&
+                     DelayChannels(cfg) == 0 && c.command_id_[0] >= 0 && c.command_id_[1] >= 0 &&
+                     c.command_id_[2] < 0 && c.command_id_[3] < 0 && c.ChambersFollowEndVelocity();
+  for (int i = 0; i < 4; ++i) c.voltages_only_ = c.voltages_only_ && c.state_id_[i] < 0;
   return c;
 }
 
@@ -359,15 +368,26 @@ void Cylinder::BeginStep(const mjModel* m, mjData* d, const PassInputs& pass, Ba
   const double h = m->opt.timestep;
   ValveInputs valves;
   double p0[2];
-  const double x_rate = StartStep(m, d, pass, &valves, p0);
-  // a valve per chamber without a lag or a dead time holds its openings over the step: PortSchedule's
-  // own case, taken without building one
-  const bool held_voltage = config_.valve == ValveKind::kProportionalPerChamber &&
-                            !(config_.CommandDeadTime() > 0 || config_.spool_time_constant > 0);
+  double x_rate = 0;
+  if (voltages_only_) {
+    // StartStep's work where the two valve voltages are all the cylinder's inputs: nothing else to read or
+    // to step
+    for (int k = 0; k < 2; ++k) {
+      valves.command[k] = pass.zero_commands ? 0.0 : ClampedControl(m, d, command_id_[k]);
+      p0[k] = Act(m, d, info_.chamber_actuator[k]) + config_.p_atm;
+    }
+    x_rate = PistonVelocity(m, d, info_);
+    if (pass.end_velocity) {
+      const mjtNum* moment = d->actuator_moment + static_cast<size_t>(info_.chamber_actuator[0]) * m->nv;
+      x_rate = dof_ >= 0 ? moment[dof_] * pass.end_velocity[dof_] : mju_dot(moment, pass.end_velocity, m->nv);
+    }
+  } else {
+    x_rate = StartStep(m, d, pass, &valves, p0);
+  }
   for (int k = 0; k < 2; ++k) {
     BatchedChamber& c = chambers[k];
     c.model = &chamber_model_[k];
-    if (held_voltage) {
+    if (held_voltage_) {
       c.open_start = c.open_end = ProportionalValveAreas(config_.chamber[k], valves.command[k], config_.deadband_voltage);
       c.held = true;
     } else {

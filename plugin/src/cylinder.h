@@ -104,6 +104,8 @@ class Cylinder {
   int extra_state_id_[kMaxExtraStates] = {-1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1};  // role table rows of Role::kState
   bool has_extra_states_ = false;
   bool batched_ = false;                  // see Batched()
+  bool held_voltage_ = false;             // valve per chamber, openings held over a step (BeginStep)
+  bool voltages_only_ = false;            // held_voltage_ and nothing else to read or step (BeginStep)
   int dof_ = -1;                          // the joint's dof when the transmission is a slide or hinge joint
   double static_friction_ = 0;            // transmission frictionloss in actuator units
   std::vector<std::pair<int, ActuatorRole>> actuators_;
