@@ -84,8 +84,9 @@ struct Constants {
   Mask none = (pu <= 0) | (opening <= 0);
   Lanes ratio = pd / pu;
   Mask choked = pd * k.theta < pu;
-  Lanes slope;
-  Lanes root = Shape(k, ratio, &slope);
+  // the subsonic shape, unless no lane needs it (an exhaust port is choked above 1.9 p_exhaust)
+  Lanes slope = Splat(0.0), root = Splat(0.0);
+  if (Any(~(none | choked))) root = Shape(k, ratio, &slope);
   Lanes zero = Splat(0.0);
   *d_pd = Select(none | choked, zero, opening * k.alpha * slope);
   *d_pu = Select(none, zero, Select(choked, opening * k.beta, opening * k.alpha * (root - ratio * slope)));

@@ -8,10 +8,6 @@
 namespace pneumatic {
 namespace {
 
-// smooth max(y, 0) over a scale `unit`: paper 000 Section II.A.3's smax(y) = (sqrt(y^2 + 1) + y) / 2 taken
-// on y / unit (the paper's mm^2) and scaled back, unit smax(y / unit) = (sqrt(y^2 + unit^2) + y) / 2
-double Smax(double y, double unit) { return (std::sqrt(y * y + unit * unit) + y) / 2; }
-
 bool HasDelays(const CylinderConfig& c) { return c.delay_open > 0 || c.delay_close > 0; }
 
 // (start instant, value) pairs on [0, h]: the first starts at 0
@@ -118,19 +114,6 @@ bool ValueAt(const Timeline& t, double tau) {
 
 double OnOffCapacity(const ChamberConfig& chamber) {
   return chamber.flow == FlowLaw::kIso6358 ? chamber.sonic_conductance : chamber.port_area;
-}
-
-PortOpenings ProportionalValveAreas(const ChamberConfig& k, double u, double deadband) {
-  // paper 000 eqs. (3a), (3b), with areas scaled by area_smoothing (the paper's mm^2) inside smax; the
-  // deadband shifts the seals outward, U_c + deadband and U_r - deadband (the project's own form of the
-  // spool deadband of paper 001 for this valve)
-  double unit = k.area_smoothing;
-  double supply_seal = k.u_supply_seal, exhaust_seal = k.u_exhaust_seal;
-  if (deadband > 0) supply_seal += deadband, exhaust_seal -= deadband;
-  PortOpenings a;
-  a.supply = k.leak_area_supply + Smax((u - supply_seal) * k.area_gain - k.leak_area_supply, unit);
-  a.exhaust = k.leak_area_exhaust + Smax((exhaust_seal - u) * k.area_gain - k.leak_area_exhaust, unit);
-  return a;
 }
 
 double SpoolOpening(const CylinderConfig& c, double spool_position) {

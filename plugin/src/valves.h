@@ -9,6 +9,7 @@
 #ifndef PNEUMATIC_VALVES_H_
 #define PNEUMATIC_VALVES_H_
 
+#include <cmath>
 
 #include "config.h"
 
@@ -115,10 +116,24 @@ ValveSignal ProportionalSignal(const CylinderConfig& c, int channel, const Valve
 // full-open capacity of one on/off valve port in flow-law units, per chamber
 double OnOffCapacity(const ChamberConfig& chamber);
 
+// smooth max(y, 0) over a scale `unit`: paper 000 Section II.A.3's smax(y) = (sqrt(y^2 + 1) + y) / 2 taken
+// on y / unit (the paper's mm^2) and scaled back, unit smax(y / unit) = (sqrt(y^2 + unit^2) + y) / 2
+inline double Smax(double y, double unit) { return (std::sqrt(y * y + unit * unit) + y) / 2; }
+
 // paper 000 eq. (3): supply and exhaust areas (m^2) of a chamber's own valve at command u (V); a
 // deadband (deadband_voltage, V) moves the supply seal up to U_c + deadband and the exhaust seal down
-// to U_r - deadband
-PortOpenings ProportionalValveAreas(const ChamberConfig& chamber, double u, double deadband = 0);
+// to U_r - deadband (the project's own form of the spool deadband of paper 001 for this valve). Inline:
+// every step of every such chamber takes it.
+inline PortOpenings ProportionalValveAreas(const ChamberConfig& k, double u, double deadband = 0) {
+  // areas scaled by area_smoothing (the paper's mm^2) inside smax
+  double unit = k.area_smoothing;
+  double supply_seal = k.u_supply_seal, exhaust_seal = k.u_exhaust_seal;
+  if (deadband > 0) supply_seal += deadband, exhaust_seal -= deadband;
+  PortOpenings a;
+  a.supply = k.leak_area_supply + Smax((u - supply_seal) * k.area_gain - k.leak_area_supply, unit);
+  a.exhaust = k.leak_area_exhaust + Smax((exhaust_seal - u) * k.area_gain - k.leak_area_exhaust, unit);
+  return a;
+}
 
 // effective spool opening (m) after the deadband; paper 001, rigs.md rig B
 double SpoolOpening(const CylinderConfig& c, double spool_position);
