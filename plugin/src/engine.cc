@@ -449,13 +449,13 @@ void StepWithReservoirs(const CompiledModel& model, const mjModel* m, mjData* d,
 void StepCylinders(const CompiledModel& model, const mjModel* m, mjData* d, const PassInputs& pass) {
   int batched = 0;
   for (const Cylinder& c : model.cylinders) batched += c.Batched();
-  if (batched == 0) {
+  // the chambers' inputs and results in the pass's stack (inside the caller's mjMARKSTACK; BeginStep
+  // writes every field), where it has room: else each cylinder by its own Step, with the same result
+  const int words = static_cast<int>((2 * batched * sizeof(BatchedChamber) + sizeof(mjtNum) - 1) / sizeof(mjtNum));
+  if (batched == 0 || d->nstack - d->pstack < words) {
     for (const Cylinder& c : model.cylinders) c.Step(m, d, pass);
     return;
   }
-  // the chambers' inputs and results in the pass's stack (inside the caller's mjMARKSTACK); BeginStep
-  // writes every field
-  const int words = static_cast<int>((2 * batched * sizeof(BatchedChamber) + sizeof(mjtNum) - 1) / sizeof(mjtNum));
   BatchedChamber* chambers = reinterpret_cast<BatchedChamber*>(mj_stackAlloc(d, words));
   BatchedChamber* next = chambers;
   for (const Cylinder& c : model.cylinders) {
