@@ -46,6 +46,16 @@ template <typename Mask, typename Lanes>
 [[gnu::always_inline]] inline Lanes Choose(Mask m, Lanes a, Lanes b) {
   return (Lanes)(((Mask)a & m) | ((Mask)b & ~m));
 }
+// the bits of the double 2^(biased - 1023), biased in [1, 2046]: shifted as unsigned, so that a NaN's
+// garbage shifts without overflow
+inline std::int64_t ExponentBits(std::int64_t biased) {
+  return static_cast<std::int64_t>(static_cast<std::uint64_t>(biased) << 52);
+}
+template <typename Mask>
+[[gnu::always_inline]] inline Mask ExponentBits(Mask biased) {
+  typedef std::uint64_t Unsigned __attribute__((vector_size(sizeof(Mask))));
+  return (Mask)((Unsigned)biased << 52);
+}
 
 constexpr double kLargest = 709.0;   // e^x is below 2^1023 (k <= 1023) up to it
 constexpr double kSmallest = -708.0;           // e^x is normal above it
@@ -65,7 +75,7 @@ template <typename T>
         r * (1.0 / 362880 + r * (1.0 / 3628800 + r * (1.0 / 39916800 + r * (1.0 / 479001600 +
         r * (1.0 / 6227020800.0)))))))))));
   auto k_bits = Bits(shifted) - Bits(kShifter);  // k, an integer
-  *scale = FromBits((k_bits + 1023) << 52);
+  *scale = FromBits(ExponentBits(k_bits + 1023));
   return r + r * r * q;
 }
 
