@@ -3,7 +3,6 @@
 // beside it hold; and its one-by-one form (processors without AVX2) against both. (Without AVX2
 // here, the lanes are not run and only the one-by-one form is compared.)
 #include <cmath>
-#include <cstring>
 #include <random>
 #include <string>
 #include <vector>
@@ -20,7 +19,7 @@
 namespace pneumatic {
 namespace {
 
-bool SameBits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+using testing::SameBits;
 
 // One random chamber step: its model, its valve's inputs and configuration, its volume path and pressure.
 struct Case {
@@ -91,13 +90,13 @@ TEST(ChamberBatch, EveryChamberStepsBitForBitAsTheScalarStep) {
     LinearizedChambers(one_by_one.data(), count, h, false);
     for (int i = 0; i < count; ++i) {
       ASSERT_EQ(one_by_one[i].done, batch[i].done);
-      if (batch[i].done) ASSERT_TRUE(SameBits(one_by_one[i].p1, batch[i].p1));
+      if (batch[i].done) ASSERT_TRUE(SameBits({one_by_one[i].p1}, {batch[i].p1}));
       const PortSchedule* schedule = &schedules[i];
       double p1 = 0;
       bool done = false;
       LinearizedPressureStep(1, &models[cases[i].model], &schedule, &cases[i].volume, 0, &cases[i].p0, h, &p1, &done);
       ASSERT_EQ(batch[i].done, done) << "round " << round << " chamber " << i;
-      if (done) ASSERT_TRUE(SameBits(batch[i].p1, p1)) << batch[i].p1 << " against " << p1;
+      if (done) ASSERT_TRUE(SameBits({batch[i].p1}, {p1}));
       ++compared;
       taken += done;
       switching += !schedules[i].breakpoints().empty();

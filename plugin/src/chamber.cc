@@ -218,10 +218,7 @@ double PhysicalPressureStep(const ChamberModel& k, const PortSchedule& ports, co
 }
 
 double Log1p(double x) {
-  if (!(std::fabs(x) <= 1.0 / 64)) return std::log1p(x);
-  // x - x^2/2 + ... - x^10/10 in Horner's form; the first term left out, x^11/11, is below 1e-19 |x|
-  return x * (1 - x * (1.0 / 2 - x * (1.0 / 3 - x * (1.0 / 4 - x * (1.0 / 5 - x * (1.0 / 6 - x * (1.0 / 7 -
-         x * (1.0 / 8 - x * (1.0 / 9 - x / 10)))))))));
+  return std::fabs(x) <= exponential::kLog1pSeriesLimit ? exponential::Log1pSeries(x) : std::log1p(x);
 }
 
 namespace {

@@ -28,11 +28,8 @@ using Lanes = double __attribute__((vector_size(8 * kLanes)));
 using Mask = std::int64_t __attribute__((vector_size(8 * kLanes)));
 
 [[gnu::always_inline]] inline Lanes Splat(double x) { return Lanes{} + x; }
-// (masks are all ones or all zeros in each lane, as comparisons give them: a bitwise blend; a cast between
-// vector types of one size reinterprets the bits)
-[[gnu::always_inline]] inline Lanes Select(Mask m, Lanes a, Lanes b) {
-  return (Lanes)(((Mask)a & m) | ((Mask)b & ~m));
-}
+// (masks are all ones or all zeros in each lane, as comparisons give them: exponential.h's bitwise blend)
+[[gnu::always_inline]] inline Lanes Select(Mask m, Lanes a, Lanes b) { return exponential::Choose(m, a, b); }
 [[gnu::always_inline]] inline bool Any(Mask m) {
   for (int j = 0; j < kLanes; ++j) {
     if (m[j]) return true;
@@ -176,10 +173,9 @@ __attribute__((target("avx2"))) void StepLanes(BatchedChamber* lane[kLanes], dou
   // the polytropic compression as a constant rate, -alpha n ln(V(h)/V(0)) / h, with Log1p's series in
   // the lanes (std::log1p beyond |x| = 1/64, lane by lane)
   const Lanes x = (v_end - v_start) / v_start;
-  Lanes log1p = x * (1 - x * (1.0 / 2 - x * (1.0 / 3 - x * (1.0 / 4 - x * (1.0 / 5 - x * (1.0 / 6 - x * (1.0 / 7 -
-                x * (1.0 / 8 - x * (1.0 / 9 - x / 10)))))))));
+  Lanes log1p = exponential::Log1pSeries(x);
   for (int j = 0; j < kLanes; ++j) {
-    if (!(std::fabs(x[j]) <= 1.0 / 64)) log1p[j] = std::log1p(x[j]);
+    if (!(std::fabs(x[j]) <= exponential::kLog1pSeriesLimit)) log1p[j] = std::log1p(x[j]);
   }
   const Lanes log_ratio = -exponent * log1p;
   const Mask moved = v_end != v_start;

@@ -271,7 +271,7 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
   c.held_voltage_ = cfg.valve == ValveKind::kProportionalPerChamber &&
                     !(cfg.CommandDeadTime() > 0 || cfg.spool_time_constant > 0);
   c.voltages_only_ = c.held_voltage_ && !c.has_extra_states_ && cfg.friction_model != FrictionModel::kLuGre &&
-                     DelayChannels(cfg) == 0 && c.command_id_[0] >= 0 && c.command_id_[1] >= 0 &&
+                     c.command_id_[0] >= 0 && c.command_id_[1] >= 0 &&
                      c.command_id_[2] < 0 && c.command_id_[3] < 0 && c.ChambersFollowEndVelocity();
   for (int i = 0; i < 4; ++i) c.voltages_only_ = c.voltages_only_ && c.state_id_[i] < 0;
   return c;
@@ -324,6 +324,16 @@ double Cylinder::LargestVolume() const {
   return v;
 }
 
+void Cylinder::ReadChamberPressures(const mjModel* m, const mjData* d, double p0[2]) const {
+  for (int k = 0; k < 2; ++k) p0[k] = Act(m, d, info_.chamber_actuator[k]) + config_.p_atm;
+}
+
+double Cylinder::EndOfStepPistonRate(const mjModel* m, const mjData* d, const mjtNum* end_velocity) const {
+  // the piston's rate is the actuator moment times the joint velocities; a joint's is one entry
+  const mjtNum* moment = d->actuator_moment + static_cast<size_t>(info_.chamber_actuator[0]) * m->nv;
+  return dof_ >= 0 ? moment[dof_] * end_velocity[dof_] : mju_dot(moment, end_velocity, m->nv);
+}
+
 double Cylinder::StartStep(const mjModel* m, mjData* d, const PassInputs& pass, ValveInputs* valves_out,
                            double p0[2]) const {
   const double h = m->opt.timestep;
@@ -344,15 +354,13 @@ double Cylinder::StartStep(const mjModel* m, mjData* d, const PassInputs& pass, 
     ProportionalSignal(config_, ch, valves).DelayState(h, end);
     for (int j = 0; j < 2; ++j) ActDot(m, d, extra_state_id_[DelaySlot(ch) + j]) = (end[j] - valves.delay[ch][j]) / h;
   }
-  for (int k = 0; k < 2; ++k) p0[k] = Act(m, d, info_.chamber_actuator[k]) + config_.p_atm;
+  ReadChamberPressures(m, d, p0);
   // MuJoCo's Euler and implicit integrators move the piston over the step with the velocity at its
   // end; the chamber steps follow that path (plain explicit Euler uses the velocity at the start)
   double x_rate = PistonVelocity(m, d, info_);
   double end_rate = x_rate;
   if (pass.end_velocity && NeedsEndVelocity()) {
-    // the piston's rate is the actuator moment times the joint velocities; a joint's is one entry
-    const mjtNum* moment = d->actuator_moment + static_cast<size_t>(info_.chamber_actuator[0]) * m->nv;
-    end_rate = dof_ >= 0 ? moment[dof_] * pass.end_velocity[dof_] : mju_dot(moment, pass.end_velocity, m->nv);
+    end_rate = EndOfStepPistonRate(m, d, pass.end_velocity);
     if (ChambersFollowEndVelocity()) x_rate = end_rate;
   }
   // LuGre bristles: moved over the step at the velocity MuJoCo moves the piston with (the end-of-step
@@ -372,15 +380,9 @@ void Cylinder::BeginStep(const mjModel* m, mjData* d, const PassInputs& pass, Ba
   if (voltages_only_) {
     // StartStep's work where the two valve voltages are all the cylinder's inputs: nothing else to read or
     // to step
-    for (int k = 0; k < 2; ++k) {
-      valves.command[k] = pass.zero_commands ? 0.0 : ClampedControl(m, d, command_id_[k]);
-      p0[k] = Act(m, d, info_.chamber_actuator[k]) + config_.p_atm;
-    }
-    x_rate = PistonVelocity(m, d, info_);
-    if (pass.end_velocity) {
-      const mjtNum* moment = d->actuator_moment + static_cast<size_t>(info_.chamber_actuator[0]) * m->nv;
-      x_rate = dof_ >= 0 ? moment[dof_] * pass.end_velocity[dof_] : mju_dot(moment, pass.end_velocity, m->nv);
-    }
+    for (int k = 0; k < 2; ++k) valves.command[k] = pass.zero_commands ? 0.0 : ClampedControl(m, d, command_id_[k]);
+    ReadChamberPressures(m, d, p0);
+    x_rate = pass.end_velocity ? EndOfStepPistonRate(m, d, pass.end_velocity) : PistonVelocity(m, d, info_);
   } else {
     x_rate = StartStep(m, d, pass, &valves, p0);
   }

@@ -85,6 +85,10 @@ class Cylinder {
   // delay lines and the LuGre bristles; the chambers' pressures p0 (Pa abs); returns the piston's rate
   // that moves the chambers' volumes over the step
   double StartStep(const mjModel* m, mjData* d, const PassInputs& pass, ValveInputs* valves, double p0[2]) const;
+  // the chambers' pressures at the start of the step (Pa abs)
+  void ReadChamberPressures(const mjModel* m, const mjData* d, double p0[2]) const;
+  // the piston's rate at the predicted end of the step, from the predicted joint velocities
+  double EndOfStepPistonRate(const mjModel* m, const mjData* d, const mjtNum* end_velocity) const;
   // the extra-state slot of state x1 (x2: the next) of command channel ch's dead-time delay line
   int DelaySlot(int channel) const;
   VolumePath Volume(const mjModel* m, const mjData* d, int chamber, double x_rate) const;

@@ -1,6 +1,6 @@
-// e^x and e^x - 1 in double precision, written once for one double and for the lanes of a GCC
-// vector of doubles: the linearized chamber step takes them in both forms (chamber.cc, one chamber;
-// chamber_batch.cc, four in vector lanes), and they agree bit for bit.
+// e^x and e^x - 1 in double precision (and ln(1 + x) by its series near 0), written once for one double
+// and for the lanes of a GCC vector of doubles: the linearized chamber step takes them in both forms
+// (chamber.cc, one chamber; chamber_batch.cc, four in vector lanes), and they agree bit for bit.
 //
 // The project's own evaluation, by the classic method: Cody and Waite's reduction
 // x = k ln 2 + r with |r| <= ln(2)/2 (ln 2 in two parts, the second below the first's last bit,
@@ -86,6 +86,16 @@ template <typename T>
   T p = Reduced(inside, &scale);
   T e = scale + scale * p;
   return Choose(x > kLargest, T{} + std::numeric_limits<double>::infinity(), Choose(x < kSmallest, T{} + 0.0, e));
+}
+
+// ln(1 + x) by its series x - x^2/2 + ... - x^10/10 in Horner's form, for |x| <= kLog1pSeriesLimit (the
+// first term left out, x^11/11, is below 1e-19 |x| there): within 2 ulp of std::log1p (tests/chamber_test).
+// Log1p (chamber.h) takes std::log1p beyond.
+constexpr double kLog1pSeriesLimit = 1.0 / 64;
+template <typename T>
+[[gnu::always_inline]] inline T Log1pSeries(T x) {
+  return x * (1 - x * (1.0 / 2 - x * (1.0 / 3 - x * (1.0 / 4 - x * (1.0 / 5 - x * (1.0 / 6 - x * (1.0 / 7 -
+         x * (1.0 / 8 - x * (1.0 / 9 - x / 10)))))))));
 }
 
 template <typename T>
