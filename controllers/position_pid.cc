@@ -4,6 +4,49 @@
 #include <cmath>
 
 namespace pneumatic {
+namespace {
+
+// paper 000 eq. 1c (Appendix eqs. 11-13): the thin-plate mass flow per unit of port area
+// (kg/(s m^2)) from p_from to p_to, p_from >= p_to >= 0
+double FlowPerArea(const ValveDrive::ChamberValve& v, double p_from, double p_to) {
+  if (!(p_from > p_to)) return 0;
+  if (p_to * v.flow_theta < p_from) return v.flow_beta * p_from;  // choked
+  const double r = p_to / p_from;
+  return v.flow_alpha * p_from * std::sqrt(std::max(0.0, std::pow(r, 2 / v.kappa) - std::pow(r, (v.kappa + 1) / v.kappa)));
+}
+
+// paper 000 eq. 3: the net mass flow (kg/s) into a chamber whose valve is at u (V), given each port's
+// flow per unit area (supply to chamber, chamber to exhaust)
+double NetFlow(const ValveDrive::ChamberValve& v, double u, double into, double out) {
+  auto smax = [&](double y) { return (std::sqrt(y * y + v.area_smoothing * v.area_smoothing) + y) / 2; };
+  const double supply = v.leak_supply + smax((u - v.u_supply_seal) * v.area_gain - v.leak_supply);
+  const double exhaust = v.leak_exhaust + smax((v.u_exhaust_seal - u) * v.area_gain - v.leak_exhaust);
+  return supply * into - exhaust * out;
+}
+
+// the command that moves chamber k (0 = P, 1 = N) from its measured pressure p toward p_target (Pa abs)
+// by about `step_fraction` of the way in one period (position_pid.h)
+double CommandForPressure(const ValveDrive& drive, int k, double p_target, double p, double x, double period,
+                          double step_fraction) {
+  const ValveDrive::ChamberValve& v = drive.chamber[k];
+  const double l = 2 * drive.half_stroke;
+  const double swept = std::clamp(drive.half_stroke + (k == 0 ? x : -x), 0.0, l);
+  const double volume = v.dead_volume + v.area * swept;
+  const double wanted = step_fraction * (p_target - p) * volume / (period * v.rate_per_mass);
+  // each port's flow per area at this pressure; a port whose flow would run backwards (a chamber
+  // above p_supply or below p_exhaust) is left out, so that the net flow rises with u
+  const double into = FlowPerArea(v, drive.p_supply, p), out = FlowPerArea(v, p, drive.p_exhaust);
+  double lo = drive.command_min, hi = drive.command_max;
+  if (wanted <= NetFlow(v, lo, into, out)) return lo;
+  if (wanted >= NetFlow(v, hi, into, out)) return hi;
+  for (int i = 0; i < 40; ++i) {  // (10 V) 2^-40: far below any valve's resolution
+    const double mid = (lo + hi) / 2;
+    (NetFlow(v, mid, into, out) < wanted ? lo : hi) = mid;
+  }
+  return (lo + hi) / 2;
+}
+
+}  // namespace
 
 PositionPid::PositionPid(std::vector<ValveDrive> drives, std::vector<PositionPidGains> gains, double period)
     : drives_(std::move(drives)), gains_(std::move(gains)), period_(period) {
@@ -16,7 +59,11 @@ PidGains PositionPid::GainsAt(size_t i, const CylinderMeasurement& measured) con
   pid.kp = g.kp, pid.ki = g.ki, pid.kd = g.kd, pid.u_min = -1, pid.u_max = 1;
   // the authority of the double integrator; the gains of the triple pole at -bandwidth, where larger
   // (position_pid.h)
-  const double authority = drives_[i].force_span * measured.mobility / drives_[i].half_stroke;
+  double force_span = drives_[i].force_span;
+  if (g.pressure_margin > 0) {  // pressure targets span the supply range less twice the margin
+    force_span *= 1 - 2 * g.pressure_margin / (drives_[i].p_supply - drives_[i].p_exhaust);
+  }
+  const double authority = force_span * measured.mobility / drives_[i].half_stroke;
   const double w = g.bandwidth;
   if (w > 0 && authority > 0 && std::isfinite(authority)) {
     pid.kp = std::max(pid.kp, 3 * w * w / authority);
@@ -39,6 +86,14 @@ void PositionPid::Update(double /*time*/, const std::vector<CylinderMeasurement>
     out.clear();
     switch (drive.kind) {
       case ValveDrive::Kind::kPerChamber: {
+        if (g.pressure_margin > 0) {
+          const double mid = (drive.p_supply + drive.p_exhaust) / 2;
+          const double half = (drive.p_supply - drive.p_exhaust) / 2 - g.pressure_margin;
+          const CylinderMeasurement& y = measured[i];
+          out.emplace_back("uP", CommandForPressure(drive, 0, mid + half * d, y.p_P, y.x, period_, kPressureStep));
+          out.emplace_back("uN", CommandForPressure(drive, 1, mid - half * d, y.p_N, y.x, period_, kPressureStep));
+          break;
+        }
         auto clip = [&](double u) { return std::clamp(u, drive.command_min, drive.command_max); };
         out.emplace_back("uP", clip(drive.centre + g.co_contraction + g.swing * d));
         out.emplace_back("uN", clip(drive.centre + g.co_contraction - g.swing * d));

@@ -29,6 +29,19 @@
 // cylinder) the fixed gains stay: the design leaves out the valve's seal band, and a demand that
 // small would leave the valve inside it. It also leaves out the pressure dynamics, so it holds while
 // the chambers fill faster than 1/w.
+//
+// With per-chamber valves the mapping above holds a chamber at p_supply whenever its command stays
+// above the valve centre (the co-contraction does so for both), and a chamber held at p_supply that
+// the motion compresses rises above it: the air flows back to the supply only from above. With
+// pressure_margin m > 0 the demand sets pressure targets instead (the project's own form):
+//   p*_P = p_mid + h d,  p*_N = p_mid - h d,  p_mid = (p_supply + p_exhaust)/2,  h = (p_supply - p_exhaust)/2 - m,
+// so the force follows the demand as the design above takes it (force_span shrinks by 2m / span), and
+// each chamber's valve is opened by the area that would close a fraction kPressureStep of its
+// pressure error within one control period at choked flow: a = kPressureStep |p* - p| V / (T rate p_u),
+// rate p_u / V the choked pressure rate per unit area (ValveDrive::ChamberValve), p_u the supply
+// pressure when filling and the chamber's when exhausting, V the chamber's volume at the measured x.
+// The flow only slows as the pressure nears its target (subsonic), so the step does not overshoot; the
+// command is the one whose port has area a (eq. 3 inverted), never past the valve centre.
 #ifndef PNEUMATIC_CONTROLLERS_POSITION_PID_H_
 #define PNEUMATIC_CONTROLLERS_POSITION_PID_H_
 
@@ -50,6 +63,20 @@ struct ValveDrive {
   double p_supply = 0, p_exhaust = 0;        // Pa abs: the cylinder's supply and exhaust pressures
   double force_span = 0;  // N (N m): the piston's force with one chamber at p_supply and the other at
                           // p_exhaust, on the mean of its two faces' areas
+  // Per chamber (P, N), per-chamber valves: what pressure targets (PositionPidGains::pressure_margin)
+  // need to find the command whose valve (paper 000 eq. 3) passes a wanted mass flow (eq. 1c).
+  struct ChamberValve {
+    double area = 0, dead_volume = 0;  // m^2 (m^3/rad), m^3: V = dead_volume + area (l/2 +- x)
+    double area_gain = 0;              // B, m^2/V
+    double u_supply_seal = 0, u_exhaust_seal = 0;  // V: U_c and U_r, the spool deadband included
+    double leak_supply = 0, leak_exhaust = 0;      // m^2: the ports' leak areas
+    double area_smoothing = 0;                     // m^2: the unit inside eq. 3's smax
+    // thin-plate flow (Appendix eqs. 11-13): alpha and beta (s/m), theta, kappa
+    double flow_alpha = 0, flow_beta = 0, flow_theta = 0, kappa = 0;
+    double rate_per_mass = 0;  // Pa m^3/kg: n r T, the pressure rate of a mass flow into a volume (eq. 2)
+  };
+  ChamberValve chamber[2];
+  bool pressure_targets = false;  // chamber[] read: the physical model with thin-plate flow
 };
 
 struct PositionPidGains {
@@ -60,6 +87,9 @@ struct PositionPidGains {
   double swing = 2;            // V of command per unit of demand (per-chamber valves)
   double onoff_band = 0.05;    // demand below which on/off valves stay closed
   double bandwidth = 0;        // rad/s; > 0: kp, ki, kd raised per cylinder and tick to its load (above)
+  // Pa; > 0 (per-chamber valves): the demand sets chamber pressure targets inside
+  // [p_exhaust + margin, p_supply - margin] instead of valve commands (below)
+  double pressure_margin = 0;
 };
 
 class PositionPid : public Controller {
@@ -75,6 +105,9 @@ class PositionPid : public Controller {
   bool UsesMobility() const override;
 
  private:
+  // the fraction of a chamber's pressure error its valve opening aims to close in one period
+  static constexpr double kPressureStep = 0.5;
+
   // the gains of cylinder i for this tick's measurement
   PidGains GainsAt(size_t i, const CylinderMeasurement& measured) const;
 

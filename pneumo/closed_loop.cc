@@ -14,6 +14,50 @@ namespace {
 
 enum Purpose : std::uint64_t { kSensorNoise = 11 };
 
+// what pressure targets need of a per-chamber valve's chambers (ValveDrive::ChamberValve); false,
+// and drive->pressure_targets left false, where a chamber is not the physical model with thin-plate flow
+bool ReadChamberValves(const mjModel* m, const CylinderInfo& c, ValveDrive* drive) {
+  std::string error;
+  auto number = [&](const std::string& key, double* out) {
+    std::optional<double> value = GetParameter(m, c.name, key, &error);
+    if (value) *out = *value;
+    return value.has_value();
+  };
+  double deadband = 0, temperature = 0, gas_constant = 0, kappa = 0, compressibility = 0;
+  if (!number("deadband_voltage", &deadband) || !number("temperature", &temperature) ||
+      !number("gas_constant", &gas_constant) || !number("heat_capacity_ratio", &kappa) ||
+      !number("compressibility", &compressibility)) {
+    return false;
+  }
+  for (int k = 0; k < 2; ++k) {
+    const std::string prefix = k == 0 ? "P." : "N.";
+    std::optional<std::string> model = GetChoice(m, c.name, prefix + "pressure_model", &error);
+    std::optional<std::string> flow = GetChoice(m, c.name, prefix + "flow", &error);
+    if (!model || *model != "physical" || !flow || *flow != "thin_plate") return false;
+    ValveDrive::ChamberValve& v = drive->chamber[k];
+    double discharge = 0, polytropic = 0;
+    if (!number(prefix + "area", &v.area) || !number(prefix + "dead_volume", &v.dead_volume) ||
+        !number(prefix + "area_gain", &v.area_gain) || !number(prefix + "u_supply_seal", &v.u_supply_seal) ||
+        !number(prefix + "u_exhaust_seal", &v.u_exhaust_seal) ||
+        !number(prefix + "leak_area_supply", &v.leak_supply) ||
+        !number(prefix + "leak_area_exhaust", &v.leak_exhaust) ||
+        !number(prefix + "area_smoothing", &v.area_smoothing) ||
+        !number(prefix + "discharge_coefficient", &discharge) || !number(prefix + "polytropic_index", &polytropic)) {
+      return false;
+    }
+    v.u_supply_seal += deadband, v.u_exhaust_seal -= deadband;
+    // paper 000 Appendix eqs. 11-13 (as plugin/src/flow.cc), eq. 2's n r T
+    const double zrt = compressibility * gas_constant * temperature;
+    v.flow_alpha = discharge * std::sqrt(2 / zrt * kappa / (kappa - 1));
+    v.flow_beta = discharge * std::sqrt(kappa / zrt * std::pow(2 / (kappa + 1), (kappa + 1) / (kappa - 1)));
+    v.flow_theta = std::pow((kappa + 1) / 2, kappa / (kappa - 1));
+    v.kappa = kappa;
+    v.rate_per_mass = polytropic * gas_constant * temperature;
+  }
+  drive->pressure_targets = true;
+  return true;
+}
+
 // how the controller reaches each cylinder's valves, read from the model
 std::string DriveOf(const mjModel* m, const CylinderInfo& c, ValveDrive* drive) {
   std::string error;
@@ -33,6 +77,7 @@ std::string DriveOf(const mjModel* m, const CylinderInfo& c, ValveDrive* drive) 
     if (!u_c || !u_r) return error;
     drive->centre = (*u_c + *u_r) / 2;  // paper 000 Table I: c1 = (U_c + U_r) / 2, the sealed valve
     drive->command_min = drive->centre - 5, drive->command_max = drive->centre + 5;
+    ReadChamberValves(m, c, drive);
     for (const auto& [signal, id] : c.command_actuators) {
       if (signal == "uP" && m->actuator_ctrllimited[id]) {
         drive->command_min = m->actuator_ctrlrange[2 * id], drive->command_max = m->actuator_ctrlrange[2 * id + 1];
@@ -218,6 +263,17 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
     drives.push_back(ch.drive);
     auto it = options.cylinder_gains.find(ch.info.name);
     gains.push_back(it != options.cylinder_gains.end() ? it->second : options.gains);
+    if (options.controller == "pid" && gains.back().pressure_margin > 0) {
+      const ValveDrive& drive = ch.drive;
+      if (drive.kind != ValveDrive::Kind::kPerChamber || !drive.pressure_targets) {
+        return fail("cylinder '" + ch.info.name + "': pressure_margin needs one proportional valve per chamber, " +
+                    "both chambers with the physical pressure model and thin-plate flow");
+      }
+      if (!(2 * gains.back().pressure_margin < drive.p_supply - drive.p_exhaust)) {
+        return fail("cylinder '" + ch.info.name + "': pressure_margin " + std::to_string(gains.back().pressure_margin) +
+                    " Pa leaves no pressure between p_exhaust + margin and p_supply - margin");
+      }
+    }
     channels.push_back(std::move(ch));
   }
   const size_t first_measured = out.columns.size();
@@ -249,6 +305,18 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
     summary.cylinders.push_back(s);
   }
   std::vector<double> squared_error(channels.size(), 0);
+  // every chamber's pressure range, sampled after every step (the summary's p_min, p_max)
+  auto sample_pressures = [&]() {
+    for (size_t i = 0; i < channels.size(); ++i) {
+      CylinderSummary& s = summary.cylinders[i];
+      for (int chamber = 0; chamber < 2; ++chamber) {
+        const double p = ChamberPressure(m, d.get(), channels[i].info, chamber == 0 ? Chamber::kP : Chamber::kN);
+        s.p_min[chamber] = std::min(s.p_min[chamber], p), s.p_max[chamber] = std::max(s.p_max[chamber], p);
+        s.within_supply_range &= p >= channels[i].info.p_exhaust - 1 && p <= channels[i].info.p_supply + 1;
+      }
+    }
+  };
+  sample_pressures();
   std::vector<CylinderMeasurement> measured(channels.size());
   std::unique_ptr<mjData, void (*)(mjData*)> scratch(mj_makeData(m), mj_deleteData);
   if (!scratch) return fail("mj_makeData failed");
@@ -279,11 +347,6 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
       squared_error[i] += error * error;
       CylinderSummary& s = summary.cylinders[i];
       s.max_tracking_error = std::max(s.max_tracking_error, error);
-      for (int chamber = 0; chamber < 2; ++chamber) {
-        const double p = ChamberPressure(m, d.get(), ch.info, chamber == 0 ? Chamber::kP : Chamber::kN);
-        s.p_min[chamber] = std::min(s.p_min[chamber], p), s.p_max[chamber] = std::max(s.p_max[chamber], p);
-        s.within_supply_range &= p >= ch.info.p_exhaust - 1 && p <= ch.info.p_supply + 1;
-      }
     }
     if (controller) {
       controller->Update(t, measured, &commands);
@@ -310,6 +373,7 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
 
     for (long step = 0; step < steps_per_tick; ++step) {
       mj_step(m, d.get());
+      sample_pressures();
       if (options.observer) {
         if (std::string e = options.observer(d.get()); !e.empty()) return fail(e);
       }

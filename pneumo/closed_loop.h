@@ -71,8 +71,8 @@ struct ClosedLoopOptions {
 struct CylinderSummary {
   std::string name;
   double rms_tracking_error = 0, max_tracking_error = 0;  // |ref - x| over the ticks, m or rad
-  double p_min[2] = {0, 0}, p_max[2] = {0, 0};           // Pa abs, chambers P and N, over the ticks
-  bool within_supply_range = true;  // every sampled chamber pressure in [p_exhaust, p_supply] (+-1 Pa)
+  double p_min[2] = {0, 0}, p_max[2] = {0, 0};  // Pa abs, chambers P and N, over every step
+  bool within_supply_range = true;  // every chamber pressure, at every step, in [p_exhaust, p_supply] (+-1 Pa)
 };
 struct ClosedLoopSummary {
   long steps = 0;

@@ -187,6 +187,8 @@ int main(int argc, char** argv) {
   rollout->add_option("--controller-config", closed.controller_config_path,
                       "JSON of the controller's keys. pid: kp, ki, kd (on the error over the half stroke), "
                       "co_contraction and swing (V), onoff_band, bandwidth (rad/s: gains raised per cylinder to its load), "
+                      "pressure_margin (Pa: per-chamber valves follow pressure targets inside "
+                      "[p_exhaust + margin, p_supply - margin]), "
                       "\"cylinders\": {NAME: {...}}; the others: a flat "
                       "object of numbers, keys and units in their headers (controllers/*.h); an unknown or "
                       "out-of-range key is refused, named");
