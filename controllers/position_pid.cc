@@ -29,8 +29,7 @@ double NetFlow(const ValveDrive::ChamberValve& v, double u, double into, double 
 double CommandForPressure(const ValveDrive& drive, int k, double p_target, double p, double x, double period,
                           double step_fraction) {
   const ValveDrive::ChamberValve& v = drive.chamber[k];
-  const double l = 2 * drive.half_stroke;
-  const double swept = std::clamp(drive.half_stroke + (k == 0 ? x : -x), 0.0, l);
+  const double swept = std::clamp(drive.half_stroke + (k == 0 ? x : -x), 0.0, 2 * drive.half_stroke);
   const double volume = v.dead_volume + v.area * swept;
   const double wanted = step_fraction * (p_target - p) * volume / (period * v.rate_per_mass);
   // each port's flow per area at this pressure; a port whose flow would run backwards (a chamber
@@ -90,8 +89,8 @@ void PositionPid::Update(double /*time*/, const std::vector<CylinderMeasurement>
           const double mid = (drive.p_supply + drive.p_exhaust) / 2;
           const double half = (drive.p_supply - drive.p_exhaust) / 2 - g.pressure_margin;
           const CylinderMeasurement& y = measured[i];
-          out.emplace_back("uP", CommandForPressure(drive, 0, mid + half * d, y.p_P, y.x, period_, kPressureStep));
-          out.emplace_back("uN", CommandForPressure(drive, 1, mid - half * d, y.p_N, y.x, period_, kPressureStep));
+          out.emplace_back("uP", CommandForPressure(drive, 0, mid + half * d, y.p_P, y.x, period_, g.pressure_step));
+          out.emplace_back("uN", CommandForPressure(drive, 1, mid - half * d, y.p_N, y.x, period_, g.pressure_step));
           break;
         }
         auto clip = [&](double u) { return std::clamp(u, drive.command_min, drive.command_max); };

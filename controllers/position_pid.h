@@ -35,13 +35,18 @@
 // the motion compresses rises above it: the air flows back to the supply only from above. With
 // pressure_margin m > 0 the demand sets pressure targets instead (the project's own form):
 //   p*_P = p_mid + h d,  p*_N = p_mid - h d,  p_mid = (p_supply + p_exhaust)/2,  h = (p_supply - p_exhaust)/2 - m,
-// so the force follows the demand as the design above takes it (force_span shrinks by 2m / span), and
-// each chamber's valve is opened by the area that would close a fraction kPressureStep of its
-// pressure error within one control period at choked flow: a = kPressureStep |p* - p| V / (T rate p_u),
-// rate p_u / V the choked pressure rate per unit area (ValveDrive::ChamberValve), p_u the supply
-// pressure when filling and the chamber's when exhausting, V the chamber's volume at the measured x.
-// The flow only slows as the pressure nears its target (subsonic), so the step does not overshoot; the
-// command is the one whose port has area a (eq. 3 inverted), never past the valve centre.
+// so the force follows the demand as the design above takes it (force_span shrinks by 2m / span).
+// Each chamber's command is the one whose two ports (paper 000 eq. 3, leaks and smoothing included)
+// pass, at the measured pressure p (eq. 1c), the net mass flow that would close a fraction
+// s = pressure_step of the error in one control period T if it were held:
+//   mdot* = s (p* - p) V / (T n r T_gas)   (eq. 2 with the volume held),
+// V the chamber's volume at the measured x. The net flow rises with the command, so bisection finds
+// it; a flow beyond the valve's reach takes the end of the command range. As the pressure nears its
+// target the held flow shrinks (subsonic), so a step falls short of its aim rather than overshooting.
+// s = 0.25 gives the pressure loop a time constant of -T / ln(1 - s) = 3.5 periods. A faster loop
+// corrects the pressure a light vane's motion changes a period late, and the vane rings on its
+// pneumatic spring: on the humanoid's wave s = 0.15 to 0.4 keep the waving vane within 0.064 to
+// 0.078 rad, s = 0.5 to 1 let it ring (0.107 to 0.139 rad; README).
 #ifndef PNEUMATIC_CONTROLLERS_POSITION_PID_H_
 #define PNEUMATIC_CONTROLLERS_POSITION_PID_H_
 
@@ -90,6 +95,9 @@ struct PositionPidGains {
   // Pa; > 0 (per-chamber valves): the demand sets chamber pressure targets inside
   // [p_exhaust + margin, p_supply - margin] instead of valve commands (below)
   double pressure_margin = 0;
+  // with pressure targets: the fraction of a chamber's pressure error its valve aims to close in one
+  // control period, in (0, 1] (below)
+  double pressure_step = 0.25;
 };
 
 class PositionPid : public Controller {
@@ -105,9 +113,6 @@ class PositionPid : public Controller {
   bool UsesMobility() const override;
 
  private:
-  // the fraction of a chamber's pressure error its valve opening aims to close in one period
-  static constexpr double kPressureStep = 0.5;
-
   // the gains of cylinder i for this tick's measurement
   PidGains GainsAt(size_t i, const CylinderMeasurement& measured) const;
 

@@ -273,6 +273,9 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
         return fail("cylinder '" + ch.info.name + "': pressure_margin " + std::to_string(gains.back().pressure_margin) +
                     " Pa leaves no pressure between p_exhaust + margin and p_supply - margin");
       }
+      if (!(gains.back().pressure_step > 0 && gains.back().pressure_step <= 1)) {
+        return fail("cylinder '" + ch.info.name + "': pressure_step must be in (0, 1]");
+      }
     }
     channels.push_back(std::move(ch));
   }

@@ -33,11 +33,12 @@ std::string ReadGains(const json& object, const std::string& where, PositionPidG
       {"swing", &PositionPidGains::swing},
       {"onoff_band", &PositionPidGains::onoff_band},
       {"bandwidth", &PositionPidGains::bandwidth},
-      {"pressure_margin", &PositionPidGains::pressure_margin}};
+      {"pressure_margin", &PositionPidGains::pressure_margin},
+      {"pressure_step", &PositionPidGains::pressure_step}};
   for (const auto& [key, value] : object.items()) {
     if (key == "cylinders") continue;
     auto it = std::find_if(kKeys.begin(), kKeys.end(), [&](const auto& k) { return key == k.first; });
-    if (it == kKeys.end()) return where + ": unknown key '" + key + "' (kp, ki, kd, co_contraction, swing, onoff_band, bandwidth, pressure_margin, cylinders)";
+    if (it == kKeys.end()) return where + ": unknown key '" + key + "' (kp, ki, kd, co_contraction, swing, onoff_band, bandwidth, pressure_margin, pressure_step, cylinders)";
     if (!value.is_number() || !std::isfinite(value.get<double>()) || value.get<double>() < 0) {
       return where + ": key '" + key + "' must be a number >= 0";
     }

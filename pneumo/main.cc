@@ -188,7 +188,8 @@ int main(int argc, char** argv) {
                       "JSON of the controller's keys. pid: kp, ki, kd (on the error over the half stroke), "
                       "co_contraction and swing (V), onoff_band, bandwidth (rad/s: gains raised per cylinder to its load), "
                       "pressure_margin (Pa: per-chamber valves follow pressure targets inside "
-                      "[p_exhaust + margin, p_supply - margin]), "
+                      "[p_exhaust + margin, p_supply - margin]), pressure_step (the fraction of a pressure error each "
+                      "control period aims to close, default 0.25), "
                       "\"cylinders\": {NAME: {...}}; the others: a flat "
                       "object of numbers, keys and units in their headers (controllers/*.h); an unknown or "
                       "out-of-range key is refused, named");
