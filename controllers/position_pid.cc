@@ -24,11 +24,35 @@ double NetFlow(const ValveDrive::ChamberValve& v, double u, double into, double 
   return supply * into - exhaust * out;
 }
 
+// the command whose pressure, predicted by paper 000's identified model one period on from p with the
+// volume sensor held at x (eq. 7, s and r of eqs. 8-10), is `aim` (Pa abs)
+double CommandForIdentifiedPressure(const ValveDrive& drive, const ValveDrive::ChamberValve& v, double aim, double p,
+                                    double x, double period) {
+  auto predicted = [&](double u) {
+    const double u_hat = u - v.c[1];
+    const double arg = v.c[2] * u_hat + v.c[3] * u_hat * u_hat * u_hat;
+    const double g = arg / std::sqrt(arg * arg + 1);                                                     // eq. 8
+    const double rate_k = std::sqrt(u_hat * u_hat + v.c_gamma * v.c_gamma) - v.c_gamma + v.c[9] + v.c[8] * u_hat;  // eq. 9
+    const double s = v.c_b + v.c_s * g;                                           // eq. 10 with v' = 0
+    const double r = std::max(v.c[7] * rate_k / (1 + v.c[6] * x), 0.0);
+    return s + (p - s) * std::exp(-r * period);                                   // eq. 7
+  };
+  double lo = drive.command_min, hi = drive.command_max;
+  if (aim <= predicted(lo)) return lo;
+  if (aim >= predicted(hi)) return hi;
+  for (int i = 0; i < 40; ++i) {
+    const double mid = (lo + hi) / 2;
+    (predicted(mid) < aim ? lo : hi) = mid;
+  }
+  return (lo + hi) / 2;
+}
+
 // the command that moves chamber k (0 = P, 1 = N) from its measured pressure p toward p_target (Pa abs)
 // by about `step_fraction` of the way in one period (position_pid.h)
 double CommandForPressure(const ValveDrive& drive, int k, double p_target, double p, double x, double period,
                           double step_fraction) {
   const ValveDrive::ChamberValve& v = drive.chamber[k];
+  if (v.identified) return CommandForIdentifiedPressure(drive, v, p + step_fraction * (p_target - p), p, x, period);
   const double swept = std::clamp(drive.half_stroke + (k == 0 ? x : -x), 0.0, 2 * drive.half_stroke);
   const double volume = v.dead_volume + v.area * swept;
   const double wanted = step_fraction * (p_target - p) * volume / (period * v.rate_per_mass);

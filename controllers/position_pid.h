@@ -43,6 +43,8 @@
 // V the chamber's volume at the measured x. The net flow rises with the command, so bisection finds
 // it; a flow beyond the valve's reach takes the end of the command range. As the pressure nears its
 // target the held flow shrinks (subsonic), so a step falls short of its aim rather than overshooting.
+// A chamber of paper 000's identified model gets the command whose predicted pressure one period on
+// (eq. 7 with s and r of eq. 10, the volume sensor held) is p + s (p* - p), found by bisection too.
 // s = 0.25 gives the pressure loop a time constant of -T / ln(1 - s) = 3.5 periods. A faster loop
 // corrects the pressure a light vane's motion changes a period late, and the vane rings on its
 // pneumatic spring: on the humanoid's wave s = 0.15 to 0.4 keep the waving vane within 0.064 to
@@ -69,8 +71,12 @@ struct ValveDrive {
   double force_span = 0;  // N (N m): the piston's force with one chamber at p_supply and the other at
                           // p_exhaust, on the mean of its two faces' areas
   // Per chamber (P, N), per-chamber valves: what pressure targets (PositionPidGains::pressure_margin)
-  // need to find the command whose valve (paper 000 eq. 3) passes a wanted mass flow (eq. 1c).
+  // need to find the command whose valve (paper 000 eq. 3) passes a wanted mass flow (eq. 1c), or,
+  // for paper 000's identified model, whose predicted pressure (eqs. 7-10) is the wanted one.
   struct ChamberValve {
+    bool identified = false;  // pressure_model=identified: c, c_gamma, c_b, c_s; else the physical keys
+    double c[10] = {0};       // c[1]..c[9] (V, 1/V, 1/V^3, Pa s/m, 1/m, 1/m, 1/(V s), -, V)
+    double c_gamma = 0, c_b = 0, c_s = 0;  // V, Pa abs, Pa
     double area = 0, dead_volume = 0;  // m^2 (m^3/rad), m^3: V = dead_volume + area (l/2 +- x)
     double area_gain = 0;              // B, m^2/V
     double u_supply_seal = 0, u_exhaust_seal = 0;  // V: U_c and U_r, the spool deadband included
@@ -81,7 +87,7 @@ struct ValveDrive {
     double rate_per_mass = 0;  // Pa m^3/kg: n r T, the pressure rate of a mass flow into a volume (eq. 2)
   };
   ChamberValve chamber[2];
-  bool pressure_targets = false;  // chamber[] read: the physical model with thin-plate flow
+  bool pressure_targets = false;  // chamber[] read: the physical model with thin-plate flow, or the identified one
 };
 
 struct PositionPidGains {

@@ -15,7 +15,8 @@ namespace {
 enum Purpose : std::uint64_t { kSensorNoise = 11 };
 
 // what pressure targets need of a per-chamber valve's chambers (ValveDrive::ChamberValve); false,
-// and drive->pressure_targets left false, where a chamber is not the physical model with thin-plate flow
+// and drive->pressure_targets left false, where a chamber is neither paper 000's identified model nor
+// the physical one with thin-plate flow
 bool ReadChamberValves(const mjModel* m, const CylinderInfo& c, ValveDrive* drive) {
   std::string error;
   auto number = [&](const std::string& key, double* out) {
@@ -32,9 +33,21 @@ bool ReadChamberValves(const mjModel* m, const CylinderInfo& c, ValveDrive* driv
   for (int k = 0; k < 2; ++k) {
     const std::string prefix = k == 0 ? "P." : "N.";
     std::optional<std::string> model = GetChoice(m, c.name, prefix + "pressure_model", &error);
-    std::optional<std::string> flow = GetChoice(m, c.name, prefix + "flow", &error);
-    if (!model || *model != "physical" || !flow || *flow != "thin_plate") return false;
+    if (!model) return false;
     ValveDrive::ChamberValve& v = drive->chamber[k];
+    if (*model == "identified") {  // paper 000 eqs. 7-10
+      v.identified = true;
+      for (int i = 1; i <= 9; ++i) {
+        if (!number(prefix + "c" + std::to_string(i), &v.c[i])) return false;
+      }
+      if (!number(prefix + "c_gamma", &v.c_gamma) || !number(prefix + "c_b", &v.c_b) ||
+          !number(prefix + "c_s", &v.c_s)) {
+        return false;
+      }
+      continue;
+    }
+    std::optional<std::string> flow = GetChoice(m, c.name, prefix + "flow", &error);
+    if (*model != "physical" || !flow || *flow != "thin_plate") return false;
     double discharge = 0, polytropic = 0;
     if (!number(prefix + "area", &v.area) || !number(prefix + "dead_volume", &v.dead_volume) ||
         !number(prefix + "area_gain", &v.area_gain) || !number(prefix + "u_supply_seal", &v.u_supply_seal) ||
@@ -267,7 +280,7 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
       const ValveDrive& drive = ch.drive;
       if (drive.kind != ValveDrive::Kind::kPerChamber || !drive.pressure_targets) {
         return fail("cylinder '" + ch.info.name + "': pressure_margin needs one proportional valve per chamber, " +
-                    "both chambers with the physical pressure model and thin-plate flow");
+                    "each chamber with the identified pressure model or the physical one with thin-plate flow");
       }
       if (!(2 * gains.back().pressure_margin < drive.p_supply - drive.p_exhaust)) {
         return fail("cylinder '" + ch.info.name + "': pressure_margin " + std::to_string(gains.back().pressure_margin) +

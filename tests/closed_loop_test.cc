@@ -195,30 +195,33 @@ TEST(ClosedLoop, MeasuresTheMobilityThePistonSees) {
 // joint within 0.1 rad RMS (the wave swings it by +-0.44 rad at 1 Hz), the other vanes within
 // 0.05 rad and the linear cylinders within 5 mm; in both, every chamber inside [p_exhaust, p_supply]
 // at every step (the shipped gains set pressure targets 30 kPa inside it; under the valve mapping 10
-// cylinders pass p_supply holding and 14 in the wave).
+// cylinders pass p_supply holding and 14 in the wave). The same with the identified pressure model.
 TEST(Humanoid, HoldsItsPoseAndWavesUnderItsShippedGains) {
-  AttachedModel model;
-  ASSERT_TRUE(model.Load(ShippedModel("humanoid_pneumatic.xml"), true)) << model.error();
-  const mjModel* m = model.m();
   log::ReadResult wave = log::ReadLog(ShippedModel("humanoid_wave.csv"), {});
   ASSERT_TRUE(wave.log) << wave.error;
-  const std::vector<const log::Log*> references = {nullptr, &*wave.log};  // hold, then wave
-  for (const log::Log* reference : references) {
-    ClosedLoopOptions options;
-    ASSERT_EQ(ReadControllerConfig(ShippedModel("humanoid_pid.json"), &options), "");
-    options.duration = reference ? 7.5 : 5;
-    options.reference = reference;
-    ClosedLoopResult run = RunClosedLoop(m, options);
-    ASSERT_TRUE(run.log) << run.error;
-    const std::vector<CylinderInfo> cylinders = Cylinders(m);
-    ASSERT_EQ(run.summary.cylinders.size(), cylinders.size());
-    for (size_t i = 0; i < cylinders.size(); ++i) {
-      const CylinderSummary& s = run.summary.cylinders[i];
-      const bool vane = m->actuator_trntype[cylinders[i].chamber_actuator[0]] == mjTRN_JOINT;  // on its hinge
-      const double bound = !reference ? (vane ? 0.01 : 2.5e-3) : s.name == "r_shoulder_yaw" ? 0.1 : vane ? 0.05 : 5e-3;
-      EXPECT_LT(s.rms_tracking_error, bound) << s.name << (reference ? " in the wave" : " holding");
-      EXPECT_TRUE(s.within_supply_range) << s.name << (reference ? " in the wave" : " holding") << ": "
-                                         << s.p_max[0] << ", " << s.p_max[1] << " Pa";
+  for (const char* file : {"humanoid_pneumatic.xml", "humanoid_pneumatic_identified.xml"}) {
+    SCOPED_TRACE(file);
+    AttachedModel model;
+    ASSERT_TRUE(model.Load(ShippedModel(file), true)) << model.error();
+    const mjModel* m = model.m();
+    const std::vector<const log::Log*> references = {nullptr, &*wave.log};  // hold, then wave
+    for (const log::Log* reference : references) {
+      ClosedLoopOptions options;
+      ASSERT_EQ(ReadControllerConfig(ShippedModel("humanoid_pid.json"), &options), "");
+      options.duration = reference ? 7.5 : 5;
+      options.reference = reference;
+      ClosedLoopResult run = RunClosedLoop(m, options);
+      ASSERT_TRUE(run.log) << run.error;
+      const std::vector<CylinderInfo> cylinders = Cylinders(m);
+      ASSERT_EQ(run.summary.cylinders.size(), cylinders.size());
+      for (size_t i = 0; i < cylinders.size(); ++i) {
+        const CylinderSummary& s = run.summary.cylinders[i];
+        const bool vane = m->actuator_trntype[cylinders[i].chamber_actuator[0]] == mjTRN_JOINT;  // on its hinge
+        const double bound = !reference ? (vane ? 0.01 : 2.5e-3) : s.name == "r_shoulder_yaw" ? 0.1 : vane ? 0.05 : 5e-3;
+        EXPECT_LT(s.rms_tracking_error, bound) << s.name << (reference ? " in the wave" : " holding");
+        EXPECT_TRUE(s.within_supply_range) << s.name << (reference ? " in the wave" : " holding") << ": "
+                                           << s.p_max[0] << ", " << s.p_max[1] << " Pa";
+      }
     }
   }
 }
@@ -265,6 +268,29 @@ TEST(ClosedLoop, PressureTargetsMoveEachChamberAQuarterOfTheWayPerTickAndStayBel
   options.gains.pressure_margin = 30e3;
   EXPECT_THAT(RunClosedLoop(five_three.m(), options).error,
               HasSubstr("cylinder 'cyl': pressure_margin needs one proportional valve per chamber"));
+}
+
+// Pressure targets on paper 000's identified model: each valve gets the command whose pressure,
+// predicted one period on by eq. 7 (s and r of eqs. 8-10, the volume sensor held), is the aim
+// p + pressure_step (p* - p). On a rig whose piston cannot move (a 1e6 kg load) and whose model has no
+// volume terms (c4 = c5 = c6 = 0), s and r stay as the command set them, so the extension's step of
+// eq. 7 lands on the aim: from p_atm, with the piston on its target (demand 0, p* = 360 kPa),
+// 100 + 0.25 (360 - 100) = 165 kPa after one tick and 165 + 0.25 (360 - 165) = 213.75 kPa after two.
+TEST(ClosedLoop, PressureTargetsOnTheIdentifiedModelLandOnTheirAim) {
+  AttachedModel model;
+  ASSERT_TRUE(model.Load(testing::IdentifiedRig())) << model.error();
+  ClosedLoopOptions options;
+  options.duration = 0.03;
+  options.gains.pressure_margin = 30e3;
+  ClosedLoopResult result = RunClosedLoop(model.m(), options);
+  ASSERT_TRUE(result.log) << result.error;
+  const log::Log& log = *result.log;
+  for (const char* signal : {"p_P", "p_N"}) {
+    const std::vector<double>& p = log.values[static_cast<size_t>(log.FindColumn("cyl", signal))];
+    EXPECT_EQ(p[0], 1e5) << signal;
+    EXPECT_NEAR(p[1], 165e3, 1) << signal;
+    EXPECT_NEAR(p[2], 213.75e3, 1) << signal;
+  }
 }
 
 TEST(ClosedLoop, BadOptionsAreNamed) {

@@ -54,28 +54,13 @@ TEST_F(SealFriction, BreaksAwayAboveTheStaticLevel) {
   EXPECT_GT(d->qpos[0], 1e-4);
 }
 
-// rig C with both chambers on the identified model; the piston is fixed (a 1e6 kg load) so v' = 0
-std::string IdentifiedRig() {
-  return R"(<mujoco><size nuser_actuator="128"/><option timestep="0.001" gravity="0 0 0"/>
-    <worldbody><body><inertial pos="0 0 0" mass="1e6" diaginertia="1 1 1"/>
-      <joint name="x" type="slide" axis="1 0 0"/></body></worldbody>
-    <actuator>
-      <general name="cyl.uP" joint="x" gaintype="user"/><general name="cyl.uN" joint="x" gaintype="user"/>
-      <general name="cyl.P" joint="x" dyntype="user" gaintype="user"/>
-      <general name="cyl.N" joint="x" dyntype="user" gaintype="user"/>
-    </actuator>
-    <custom><text name="pneumatic:cyl" data="valve=proportional_per_chamber stroke=0.1 P.area=7.854e-5
-      N.area=6.597e-5 dead_volume=1e-6 p_supply=6.2e5 p_exhaust=1e5 pressure_model=identified
-      c1=5 c2=1.5 c3=0.2 c4=0 c5=0 c6=0 c7=40 c8=0.1 c9=0.05"/></custom></mujoco>)";
-}
-
 class IdentifiedInMujoco : public MujocoTest {};
 
 TEST_F(IdentifiedInMujoco, ChamberFollowsTheExactStepOfEq7) {
   // at u = 6 V: u_hat = 1, s = c_b + c_s g(1.7) with c_b = 3.6e5, c_s = 2.6e5, g(y) = y / sqrt(y^2 + 1);
   // r = c7 (sqrt(1 + 0.01) - 0.1 + c9 + c8) = 40 * 1.0549876; p(t) = s + (p0 - s) e^(-r t) at every step
   AttachedModel rig;
-  ASSERT_TRUE(rig.Load(IdentifiedRig())) << rig.error();
+  ASSERT_TRUE(rig.Load(testing::IdentifiedRig())) << rig.error();
   const mjModel* m = rig.m();
   mjData* d = rig.d();
   CylinderInfo cyl = rig.cylinder();

@@ -196,6 +196,21 @@ class MujocoTest : public ::testing::Test {
   void (*previous_)(const char*) = nullptr;
 };
 
+// rig C with both chambers on the identified model; the piston is fixed (a 1e6 kg load) so v' = 0
+inline std::string IdentifiedRig() {
+  return R"(<mujoco><size nuser_actuator="128"/><option timestep="0.001" gravity="0 0 0"/>
+    <worldbody><body><inertial pos="0 0 0" mass="1e6" diaginertia="1 1 1"/>
+      <joint name="x" type="slide" axis="1 0 0"/></body></worldbody>
+    <actuator>
+      <general name="cyl.uP" joint="x" gaintype="user"/><general name="cyl.uN" joint="x" gaintype="user"/>
+      <general name="cyl.P" joint="x" dyntype="user" gaintype="user"/>
+      <general name="cyl.N" joint="x" dyntype="user" gaintype="user"/>
+    </actuator>
+    <custom><text name="pneumatic:cyl" data="valve=proportional_per_chamber stroke=0.1 P.area=7.854e-5
+      N.area=6.597e-5 dead_volume=1e-6 p_supply=6.2e5 p_exhaust=1e5 pressure_model=identified
+      c1=5 c2=1.5 c3=0.2 c4=0 c5=0 c6=0 c7=40 c8=0.1 c9=0.05"/></custom></mujoco>)";
+}
+
 }  // namespace pneumatic::testing
 
 #endif  // PNEUMATIC_TESTS_TEST_UTIL_H_
