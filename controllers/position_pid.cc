@@ -6,8 +6,27 @@
 namespace pneumatic {
 namespace {
 
+// The controller carries its own copy of the model's equations, as a real rig's controller would (the
+// extension's are private to it): each names the plugin function it follows.
+
+// the command in the drive's range at which `rising`, a function that rises with the command, reaches
+// `target`; the end of the range where the target lies beyond it. Bisection: 40 halvings of 10 V leave
+// 1e-11 V, far below any valve's resolution
+template <typename Rising>
+double CommandWhere(const ValveDrive& drive, Rising rising, double target) {
+  double lo = drive.command_min, hi = drive.command_max;
+  if (target <= rising(lo)) return lo;
+  if (target >= rising(hi)) return hi;
+  for (int i = 0; i < 40; ++i) {
+    const double mid = (lo + hi) / 2;
+    (rising(mid) < target ? lo : hi) = mid;
+  }
+  return (lo + hi) / 2;
+}
+
 // paper 000 eq. 1c (Appendix eqs. 11-13): the thin-plate mass flow per unit of port area
-// (kg/(s m^2)) from p_from to p_to, p_from >= p_to >= 0
+// (kg/(s m^2)) from p_from to p_to, p_from >= p_to >= 0 (plugin/src/flow.h, with the shape computed
+// rather than tabulated)
 double FlowPerArea(const ValveDrive::ChamberValve& v, double p_from, double p_to) {
   if (!(p_from > p_to)) return 0;
   if (p_to * v.flow_theta < p_from) return v.flow_beta * p_from;  // choked
@@ -15,8 +34,8 @@ double FlowPerArea(const ValveDrive::ChamberValve& v, double p_from, double p_to
   return v.flow_alpha * p_from * std::sqrt(std::max(0.0, std::pow(r, 2 / v.kappa) - std::pow(r, (v.kappa + 1) / v.kappa)));
 }
 
-// paper 000 eq. 3: the net mass flow (kg/s) into a chamber whose valve is at u (V), given each port's
-// flow per unit area (supply to chamber, chamber to exhaust)
+// paper 000 eq. 3 (plugin/src/valves.h ProportionalValveAreas): the net mass flow (kg/s) into a chamber
+// whose valve is at u (V), given each port's flow per unit area (supply to chamber, chamber to exhaust)
 double NetFlow(const ValveDrive::ChamberValve& v, double u, double into, double out) {
   auto smax = [&](double y) { return (std::sqrt(y * y + v.area_smoothing * v.area_smoothing) + y) / 2; };
   const double supply = v.leak_supply + smax((u - v.u_supply_seal) * v.area_gain - v.leak_supply);
@@ -25,7 +44,8 @@ double NetFlow(const ValveDrive::ChamberValve& v, double u, double into, double 
 }
 
 // the command whose pressure, predicted by paper 000's identified model one period on from p with the
-// volume sensor held at x (eq. 7, s and r of eqs. 8-10), is `aim` (Pa abs)
+// volume sensor held at x (eq. 7, s and r of eqs. 8-10; plugin/src/chamber.cc IdentifiedModel and
+// IdentifiedPressureStep), is `aim` (Pa abs)
 double CommandForIdentifiedPressure(const ValveDrive& drive, const ValveDrive::ChamberValve& v, double aim, double p,
                                     double x, double period) {
   auto predicted = [&](double u) {
@@ -37,14 +57,7 @@ double CommandForIdentifiedPressure(const ValveDrive& drive, const ValveDrive::C
     const double r = std::max(v.c[7] * rate_k / (1 + v.c[6] * x), 0.0);
     return s + (p - s) * std::exp(-r * period);                                   // eq. 7
   };
-  double lo = drive.command_min, hi = drive.command_max;
-  if (aim <= predicted(lo)) return lo;
-  if (aim >= predicted(hi)) return hi;
-  for (int i = 0; i < 40; ++i) {
-    const double mid = (lo + hi) / 2;
-    (predicted(mid) < aim ? lo : hi) = mid;
-  }
-  return (lo + hi) / 2;
+  return CommandWhere(drive, predicted, aim);
 }
 
 // the command that moves chamber k (0 = P, 1 = N) from its measured pressure p toward p_target (Pa abs)
@@ -59,14 +72,7 @@ double CommandForPressure(const ValveDrive& drive, int k, double p_target, doubl
   // each port's flow per area at this pressure; a port whose flow would run backwards (a chamber
   // above p_supply or below p_exhaust) is left out, so that the net flow rises with u
   const double into = FlowPerArea(v, drive.p_supply, p), out = FlowPerArea(v, p, drive.p_exhaust);
-  double lo = drive.command_min, hi = drive.command_max;
-  if (wanted <= NetFlow(v, lo, into, out)) return lo;
-  if (wanted >= NetFlow(v, hi, into, out)) return hi;
-  for (int i = 0; i < 40; ++i) {  // (10 V) 2^-40: far below any valve's resolution
-    const double mid = (lo + hi) / 2;
-    (NetFlow(v, mid, into, out) < wanted ? lo : hi) = mid;
-  }
-  return (lo + hi) / 2;
+  return CommandWhere(drive, [&](double u) { return NetFlow(v, u, into, out); }, wanted);
 }
 
 }  // namespace

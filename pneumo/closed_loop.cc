@@ -14,10 +14,10 @@ namespace {
 
 enum Purpose : std::uint64_t { kSensorNoise = 11 };
 
-// what pressure targets need of a per-chamber valve's chambers (ValveDrive::ChamberValve); false,
-// and drive->pressure_targets left false, where a chamber is neither paper 000's identified model nor
+// what pressure targets need of a per-chamber valve's chambers (ValveDrive::ChamberValve);
+// drive->pressure_targets left false where a chamber is neither paper 000's identified model nor
 // the physical one with thin-plate flow
-bool ReadChamberValves(const mjModel* m, const CylinderInfo& c, ValveDrive* drive) {
+void ReadChamberValves(const mjModel* m, const CylinderInfo& c, ValveDrive* drive) {
   std::string error;
   auto number = [&](const std::string& key, double* out) {
     std::optional<double> value = GetParameter(m, c.name, key, &error);
@@ -28,26 +28,26 @@ bool ReadChamberValves(const mjModel* m, const CylinderInfo& c, ValveDrive* driv
   if (!number("deadband_voltage", &deadband) || !number("temperature", &temperature) ||
       !number("gas_constant", &gas_constant) || !number("heat_capacity_ratio", &kappa) ||
       !number("compressibility", &compressibility)) {
-    return false;
+    return;
   }
   for (int k = 0; k < 2; ++k) {
     const std::string prefix = k == 0 ? "P." : "N.";
     std::optional<std::string> model = GetChoice(m, c.name, prefix + "pressure_model", &error);
-    if (!model) return false;
+    if (!model) return;
     ValveDrive::ChamberValve& v = drive->chamber[k];
     if (*model == "identified") {  // paper 000 eqs. 7-10
       v.identified = true;
       for (int i = 1; i <= 9; ++i) {
-        if (!number(prefix + "c" + std::to_string(i), &v.c[i])) return false;
+        if (!number(prefix + "c" + std::to_string(i), &v.c[i])) return;
       }
       if (!number(prefix + "c_gamma", &v.c_gamma) || !number(prefix + "c_b", &v.c_b) ||
           !number(prefix + "c_s", &v.c_s)) {
-        return false;
+        return;
       }
       continue;
     }
     std::optional<std::string> flow = GetChoice(m, c.name, prefix + "flow", &error);
-    if (*model != "physical" || !flow || *flow != "thin_plate") return false;
+    if (*model != "physical" || !flow || *flow != "thin_plate") return;
     double discharge = 0, polytropic = 0;
     if (!number(prefix + "area", &v.area) || !number(prefix + "dead_volume", &v.dead_volume) ||
         !number(prefix + "area_gain", &v.area_gain) || !number(prefix + "u_supply_seal", &v.u_supply_seal) ||
@@ -56,7 +56,7 @@ bool ReadChamberValves(const mjModel* m, const CylinderInfo& c, ValveDrive* driv
         !number(prefix + "leak_area_exhaust", &v.leak_exhaust) ||
         !number(prefix + "area_smoothing", &v.area_smoothing) ||
         !number(prefix + "discharge_coefficient", &discharge) || !number(prefix + "polytropic_index", &polytropic)) {
-      return false;
+      return;
     }
     v.u_supply_seal += deadband, v.u_exhaust_seal -= deadband;
     // paper 000 Appendix eqs. 11-13 (as plugin/src/flow.cc), eq. 2's n r T
@@ -68,7 +68,6 @@ bool ReadChamberValves(const mjModel* m, const CylinderInfo& c, ValveDrive* driv
     v.rate_per_mass = polytropic * gas_constant * temperature;
   }
   drive->pressure_targets = true;
-  return true;
 }
 
 // how the controller reaches each cylinder's valves, read from the model

@@ -96,7 +96,7 @@ TEST(ChamberBatch, EveryChamberStepsBitForBitAsTheScalarStep) {
       bool done = false;
       LinearizedPressureStep(1, &models[cases[i].model], &schedule, &cases[i].volume, 0, &cases[i].p0, h, &p1, &done);
       ASSERT_EQ(batch[i].done, done) << "round " << round << " chamber " << i;
-      if (done) ASSERT_TRUE(SameBits({batch[i].p1}, {p1}));
+      if (done) ASSERT_TRUE(SameBits({batch[i].p1}, {p1})) << batch[i].p1 << " against " << p1;
       ++compared;
       taken += done;
       switching += !schedules[i].breakpoints().empty();
