@@ -162,13 +162,13 @@ struct Channel {
   std::vector<std::pair<int, int>> command_columns;  // (actuator, output column) by the commands' order
 };
 
-// |J|^4 / (J M J') of each cylinder's chamber actuator (CylinderMeasurement::mobility) at the pose of
+// |J|^4 / (J M J') of each cylinder's piston, J = dx/dq (CylinderMeasurement::mobility) at the pose of
 // d: the inertia the piston sees when the joints move along J alone (q' = J' x' / |J|^2, kinetic
 // energy x'^2 J M J' / (2 |J|^4)); holding the other joints, rather than leaving them free (J M^-1 J'),
 // is what their own controllers do. Computed on `scratch` from the position stage alone, so that d
-// and its next step are untouched. `inertia_times_moment` is a workspace of nv numbers.
+// and its next step are untouched. `workspace` holds 2 nv numbers.
 void Mobilities(const mjModel* m, const mjData* d, mjData* scratch, const std::vector<Channel>& channels,
-                std::vector<mjtNum>* inertia_times_moment, std::vector<double>* out) {
+                std::vector<mjtNum>* workspace, std::vector<double>* out) {
   mju_copy(scratch->qpos, d->qpos, m->nq);
   mju_copy(scratch->mocap_pos, d->mocap_pos, 3 * m->nmocap);
   mju_copy(scratch->mocap_quat, d->mocap_quat, 4 * m->nmocap);
@@ -177,12 +177,14 @@ void Mobilities(const mjModel* m, const mjData* d, mjData* scratch, const std::v
   mj_tendon(m, scratch);
   mj_transmission(m, scratch);
   mj_crb(m, scratch);
-  inertia_times_moment->resize(static_cast<size_t>(m->nv));
+  workspace->resize(2 * static_cast<size_t>(m->nv));
+  mjtNum* jacobian = workspace->data();
+  mjtNum* inertia_times_jacobian = jacobian + m->nv;
   out->resize(channels.size());
   for (size_t i = 0; i < channels.size(); ++i) {
-    const mjtNum* moment = scratch->actuator_moment + static_cast<size_t>(channels[i].info.chamber_actuator[0]) * m->nv;
-    mj_mulM(m, scratch, inertia_times_moment->data(), moment);
-    const double squared = mju_dot(moment, moment, m->nv), inertia = mju_dot(moment, inertia_times_moment->data(), m->nv);
+    PistonJacobian(m, scratch, channels[i].info, jacobian);
+    mj_mulM(m, scratch, inertia_times_jacobian, jacobian);
+    const double squared = mju_dot(jacobian, jacobian, m->nv), inertia = mju_dot(jacobian, inertia_times_jacobian, m->nv);
     (*out)[i] = inertia > 0 ? squared * squared / inertia : 0;
   }
 }

@@ -76,12 +76,6 @@ double Clamp(double v, double lo, double hi) { return std::min(hi, std::max(lo, 
 
 unsigned char ToByte(float v) { return static_cast<unsigned char>(std::lround(255 * Clamp(v, 0, 1))); }
 
-// the joint a cylinder drives directly, or -1 (as pneumo/rollout.cc)
-int DrivenJoint(const mjModel* m, int actuator) {
-  int type = m->actuator_trntype[actuator];
-  return (type == mjTRN_JOINT || type == mjTRN_JOINTINPARENT) ? m->actuator_trnid[2 * actuator] : -1;
-}
-
 // the bore radius sqrt(A_P / pi) of a linear cylinder, from its P.area
 double BoreRadius(const mjModel* m, const CylinderInfo& c) {
   std::string ignored;
@@ -418,8 +412,14 @@ void OffscreenRenderer::AddPressureColors(const mjData* d) {
     if (scene_.ngeom >= scene_.maxgeom) return;
     mjvGeom* g = scene_.geoms + scene_.ngeom;
     mjtNum size[3], pos[3], mat[9], quat[4];
-    int joint = DrivenJoint(m, actuator);
-    if (joint >= 0 && (m->jnt_type[joint] == mjJNT_SLIDE || m->jnt_type[joint] == mjJNT_HINGE)) {
+    int joint = DrivenJoint(m, c);
+    if (c.rod_site >= 0) {
+      // mount=hinge_sites: the barrel and rod between the two sites, as a spatial tendon over them is drawn
+      const mjtNum* a = d->site_xpos + 3 * c.cap_site;
+      const mjtNum* b = d->site_xpos + 3 * c.rod_site;
+      mjv_initGeom(g, mjGEOM_CAPSULE, nullptr, nullptr, nullptr, rgba.data());
+      mjv_makeConnector(g, mjGEOM_CAPSULE, bore, a[0], a[1], a[2], b[0], b[1], b[2]);
+    } else if (joint >= 0 && (m->jnt_type[joint] == mjJNT_SLIDE || m->jnt_type[joint] == mjJNT_HINGE)) {
       const mjtNum* axis = d->xaxis + 3 * joint;
       mju_quatZ2Vec(quat, axis);
       mju_quat2Mat(mat, quat);

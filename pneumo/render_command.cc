@@ -22,13 +22,6 @@ extern char** environ;
 namespace pneumatic {
 namespace {
 
-// the joint a cylinder drives directly, or -1 (tendon, slider-crank), as pneumo/rollout.cc
-int DrivenJoint(const mjModel* m, const CylinderInfo& c) {
-  int id = c.chamber_actuator[0] >= 0 ? c.chamber_actuator[0] : c.chamber_actuator[1];
-  int type = m->actuator_trntype[id];
-  return (type == mjTRN_JOINT || type == mjTRN_JOINTINPARENT) ? m->actuator_trnid[2 * id] : -1;
-}
-
 std::string Seconds(double t) {
   std::ostringstream text;
   text.precision(9);
@@ -62,7 +55,7 @@ std::string SetStateFromLog(const mjModel* m, mjData* d, const log::Log& log, st
     if (x < 0 && v < 0) continue;
     int joint = DrivenJoint(m, c);
     if (joint < 0) {
-      return "cylinder '" + c.name + "' drives a tendon or slider-crank: its x and v cannot be set from the log";
+      return "cylinder '" + c.name + "' drives a tendon or slider-crank, or is mounted between sites: its x and v cannot be set from the log";
     }
     double gear = m->actuator_gear[6 * (c.chamber_actuator[0] >= 0 ? c.chamber_actuator[0] : c.chamber_actuator[1])];
     if (x >= 0) d->qpos[m->jnt_qposadr[joint]] = (log.values[x][row] + c.x_mid) / gear;

@@ -18,13 +18,6 @@ struct CommandSlot {
   double constant = 0;
 };
 
-// the joint a cylinder drives directly, or -1 (tendon, slider-crank)
-int DrivenJoint(const mjModel* m, const CylinderInfo& c) {
-  int id = c.chamber_actuator[0];
-  int type = m->actuator_trntype[id];
-  return (type == mjTRN_JOINT || type == mjTRN_JOINTINPARENT) ? m->actuator_trnid[2 * id] : -1;
-}
-
 }  // namespace
 
 std::string AttachedCylinders(const mjModel* m, std::vector<CylinderInfo>* cylinders) {
@@ -170,7 +163,7 @@ RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutO
       int x = commands->FindColumn(c.name, "x"), v = commands->FindColumn(c.name, "v");
       if (x < 0 && v < 0) continue;
       int joint = DrivenJoint(m, c);
-      if (joint < 0) return "cylinder '" + c.name + "' drives a tendon or slider-crank: its x and v cannot be set from the log";
+      if (joint < 0) return "cylinder '" + c.name + "' drives a tendon or slider-crank, or is mounted between sites: its x and v cannot be set from the log";
       double gear = m->actuator_gear[6 * c.chamber_actuator[0]];
       double position = x >= 0 ? commands->values[x][row] : 0;
       double velocity = v >= 0 ? commands->values[v][row] : 0;

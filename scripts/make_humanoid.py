@@ -21,9 +21,12 @@ Design (the project's own choices unless a source is named):
   pitch / roll, toes). Paper 000's 38 controlled dofs included the face; the face is left out.
 * The pelvis is welded to a fixed stand (no free joint), as paper 000's robot was identified hanging on
   a stand: no balance is needed and every joint can move freely. Self-collisions are off.
-* Linear cylinders (28): Festo DSNU round cylinders on a spatial tendon between a site on the parent
-  body and a site on the child at lever arm r from the hinge axis. At mid-range the tendon is
-  perpendicular to the lever, so the actuator length is L(q) = sqrt(d^2 + 2 r^2 (1 - cos(q - q_mid)) +- 2 d r sin(q - q_mid))
+* Linear cylinders (28): Festo DSNU round cylinders between a site on the parent body (<name>.cap)
+  and a site on the child (<name>.rod) at lever arm r from the hinge axis, mount=hinge_sites: the
+  extension computes the pin-to-pin length and its lever arm from the hinge (the same geometry as a
+  spatial tendon over the two sites, without MuJoCo's tendon work each step; plugin/README.md). At
+  mid-range the cylinder is perpendicular to the lever, so its length is
+  L(q) = sqrt(d^2 + 2 r^2 (1 - cos(q - q_mid)) +- 2 d r sin(q - q_mid))
   (d: pin-to-pin length at mid-stroke). r is chosen so that the length change over the joint range,
   L(q_max) - L(q_min), uses 90 % of the catalogue stroke (5 % margin each end, so that the joint limit,
   not the cylinder's end stop, stops the limb), and x_mid = (L(q_min) + L(q_max)) / 2, so mid-stroke is
@@ -49,7 +52,7 @@ Design (the project's own choices unless a source is named):
   motion at 1 ms, and 0.39 % / 0.33 mm open loop.
 * Motor twin: the same bodies, joints, sites, masses and damping; one <motor> per actuated joint with
   gear 1 and ctrlrange +-T_max, T_max = the cylinder's mid-range torque A_P (p_supply - p_exhaust) r
-  (A_P D (p_supply - p_exhaust) for a vane). The tendons, which only carry cylinders, are left out.
+  (A_P D (p_supply - p_exhaust) for a vane).
 
 Catalogue sizes used (Festo DSNU round cylinders, ISO 6432, catalogue: bores 10/12/16/20/25/32 mm
 with piston rods 4/6/6/8/10/12 mm; strokes from the catalogue steps 10, 25, 40, 50, 80, 100, 125 mm.
@@ -512,7 +515,8 @@ def worldbody(rows, cyls, with_sites):
 
 def custom_text(c, fit, model):
     # commands=chambers: uP and uN are the ctrl of <name>.P and <name>.N (two actuators per cylinder, not four)
-    keys = ["valve=proportional_per_chamber commands=chambers", "stroke=%s" % num(c.stroke), "x_mid=%s" % num(c.x_mid)]
+    keys = ["valve=proportional_per_chamber commands=chambers" + (" mount=hinge_sites" if c.kind == "dsnu" else ""),
+            "stroke=%s" % num(c.stroke), "x_mid=%s" % num(c.x_mid)]
     keys.append("P.area=%s N.area=%s dead_volume=%s" % (num(c.area_p), num(c.area_n), num(c.dead)))
     keys.append("p_supply=%s p_exhaust=%s temperature=%s gas_constant=%s" %
                 (num(P_SUPPLY), num(P_EXHAUST), num(TEMPERATURE), num(GAS_CONSTANT)))
@@ -545,20 +549,16 @@ def write_pneumatic(rows, cyls, mass, fit, model):
     lines.append("  <worldbody>")
     lines.append(worldbody(rows, cyls, True))
     lines.append("  </worldbody>")
-    lines.append("  <!-- each linear cylinder spans from its cap pin on the parent to its rod pin on the child -->")
-    lines.append("  <tendon>")
-    for c in cyls.values():
-        if c.kind == "dsnu":
-            lines.append('    <spatial name="%s"><site site="%s.cap"/><site site="%s.rod"/></spatial>' % (c.name, c.name, c.name))
-    lines.append("  </tendon>")
     lines.append("  <actuator>")
     lines.append("    <!-- chambers: act = p - p_atm (Pa); P extends the cylinder (x grows). commands=chambers: the")
     lines.append("         ctrl of <name>.P and <name>.N are the voltages uP and uN of their valves (V; MPYE input")
-    lines.append("         0..10 V, paper 000 used 3..7 V), so each cylinder is two actuators, not four -->")
+    lines.append("         0..10 V, paper 000 used 3..7 V), so each cylinder is two actuators, not four.")
+    lines.append("         A linear cylinder (mount=hinge_sites) spans from its cap pin <name>.cap on the parent")
+    lines.append("         to its rod pin <name>.rod on the child; its actuators drive the hinge, and their force")
+    lines.append("         is the cylinder's torque on it -->")
     for c in cyls.values():
-        t = 'tendon="%s"' % c.name if c.kind == "dsnu" else 'joint="%s"' % c.joint
         for role in ("P", "N"):
-            lines.append('    <general name="%s.%s" %s dyntype="user" gaintype="user" ctrllimited="true" ctrlrange="0 10"/>' % (c.name, role, t))
+            lines.append('    <general name="%s.%s" joint="%s" dyntype="user" gaintype="user" ctrllimited="true" ctrlrange="0 10"/>' % (c.name, role, c.joint))
     lines.append("  </actuator>")
     lines.append("  <custom>")
     for c in cyls.values():

@@ -28,7 +28,9 @@ constexpr double kValveSwing = 2.0;    // V: commands stay in paper 000's 3..7 V
 // the dof a cylinder drives: the one entry of its actuator's moment row (-1 if it has none or
 // several); joints that move both of a tendon's sites rigidly leave round-off (< 1e-9 of the largest)
 int DrivenDof(const mjModel* m, const mjData* d, const CylinderInfo& c, double* moment) {
-  const mjtNum* row = d->actuator_moment + static_cast<size_t>(c.chamber_actuator[0]) * m->nv;
+  std::vector<mjtNum> jacobian(m->nv);
+  PistonJacobian(m, d, c, jacobian.data());
+  const mjtNum* row = jacobian.data();
   double largest = 0;
   for (int i = 0; i < m->nv; ++i) largest = std::max(largest, std::fabs(row[i]));
   int dof = -1;
@@ -157,9 +159,10 @@ TEST_F(HumanoidModel, EveryActuatedJointHasACylinderWithAValvePerChamber) {
     ASSERT_GE(dof, 0) << c.name << " drives no joint or several";
     EXPECT_STREQ(mj_id2name(m, mjOBJ_JOINT, m->dof_jntid[dof]), c.name.c_str());
     EXPECT_TRUE(driven.emplace(dof, c.name).second) << c.name << " and " << driven[dof] << " drive one dof";
+    // a linear cylinder spans two sites (mount=hinge_sites); a vane is on its joint
     int trn = m->actuator_trntype[c.chamber_actuator[0]];
-    if (trn == mjTRN_TENDON) ++linear;
-    if (trn == mjTRN_JOINT) ++rotary;
+    if (c.rod_site >= 0) ++linear;
+    if (c.rod_site < 0 && trn == mjTRN_JOINT) ++rotary;
   }
   EXPECT_GE(static_cast<int>(driven.size()), 30);
   // linear cylinders between limb sites for most joints, rotary vanes for the twists

@@ -1,11 +1,14 @@
 // A cylinder on each kind of mounting: a tendon between two sites across a
-// hinge, a slider-crank on a hinge, and a rotary vane cylinder on a hinge.
+// hinge, the same two sites with mount=hinge_sites (the extension's own
+// geometry, no MuJoCo tendon), a slider-crank on a hinge, and a rotary vane
+// cylinder on a hinge.
 // With the valves closed, each chamber must follow p V^n = const with V from
 // the mounting's geometry, and the limb must settle where the chamber forces
 // balance (equal areas: p_P = p_N).
 #include <cmath>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -127,6 +130,142 @@ TEST_F(Transmission, SliderCrankFollowsTheSliderPosition) {
     return Volume(k, length - mid);
   };
   EXPECT_LT(RunSealed(xml, geometric), 1e-3);
+}
+
+
+// ---------------------------------------------------------------------------------------------
+// mount=hinge_sites: the cylinder of TendonBetweenTwoSitesFollowsTheSiteDistance, its sites named
+// cyl.cap (on the world, the parent of the forearm) and cyl.rod (on the forearm), no tendon
+
+const double kMid = std::hypot(0.1, 0.1);  // |rod - cap| with the elbow at 0
+const char* const kMidText = "0.14142135623730951";  // kMid, to the last bit
+
+std::string HingeSitesArm(const std::string& config = "") {
+  std::string xml = Arm(R"(<site name="cyl.rod" pos="0.1 0 0"/>)",
+                        Cylinder(R"(joint="elbow")", "mount=hinge_sites stroke=0.1 area=2e-4 dead_volume=2e-6 x_mid=" +
+                                                         std::string(kMidText) + " " + config));
+  return testing::ReplaceAll(xml, R"(<site name="base")", R"(<site name="cyl.cap")");
+}
+
+// the same cylinder on a spatial tendon over the same two sites
+std::string TendonArm() {
+  std::string xml = Arm(R"(<site name="cyl.rod" pos="0.1 0 0"/>)",
+                        R"(<tendon><spatial name="line"><site site="cyl.cap"/><site site="cyl.rod"/></spatial></tendon>)" +
+                            Cylinder(R"(tendon="line")", "stroke=0.1 area=2e-4 dead_volume=2e-6 x_mid=" + std::string(kMidText)));
+  return testing::ReplaceAll(xml, R"(<site name="base")", R"(<site name="cyl.cap")");
+}
+
+TEST_F(Transmission, HingeSitesFollowTheSiteDistance) {
+  auto geometric = [&](const mjModel* m, const mjData* d, int k) {
+    const double* a = d->site_xpos + 3 * mj_name2id(m, mjOBJ_SITE, "cyl.cap");
+    const double* b = d->site_xpos + 3 * mj_name2id(m, mjOBJ_SITE, "cyl.rod");
+    return Volume(k, mju_dist3(a, b) - kMid);
+  };
+  EXPECT_LT(RunSealed(HingeSitesArm(), geometric), 1e-3);
+}
+
+TEST_F(Transmission, HingeSitesGiveTheLengthLeverArmAndTorqueWorkedOutByHand) {
+  // cap (0, -0.1, 0) on the world, rod 0.1 m out on the forearm at elbow angle q, rod at
+  // (0.1 cos q, 0.1 sin q, 0): L^2 = 0.02 (1 + sin q), dL/dq = 0.01 cos q / L
+  ASSERT_EQ(std::stod(kMidText), kMid);
+  AttachedModel arm;
+  ASSERT_TRUE(arm.Load(HingeSitesArm())) << arm.error();
+  const mjModel* m = arm.m();
+  mjData* d = arm.d();
+  const CylinderInfo cyl = arm.cylinder();
+  EXPECT_EQ(cyl.cap_site, mj_name2id(m, mjOBJ_SITE, "cyl.cap"));
+  EXPECT_EQ(cyl.rod_site, mj_name2id(m, mjOBJ_SITE, "cyl.rod"));
+  EXPECT_EQ(cyl.hinge, mj_name2id(m, mjOBJ_JOINT, "elbow"));
+  EXPECT_EQ(DrivenJoint(m, cyl), -1) << "x is not proportional to the elbow angle";
+  const double q = 0.3, qdot = -0.7;
+  d->qpos[0] = q, d->qvel[0] = qdot;
+  SetChamberPressure(m, d, cyl, Chamber::kP, 3e5);
+  SetChamberPressure(m, d, cyl, Chamber::kN, 1.5e5);
+  mj_forward(m, d);
+  const double length = 0.1 * std::sqrt(2 * (1 + std::sin(q)));
+  const double lever = 0.01 * std::cos(q) / length;
+  EXPECT_NEAR(PistonPosition(m, d, cyl), length - kMid, 1e-15);
+  EXPECT_NEAR(PistonVelocity(m, d, cyl), lever * qdot, 1e-15);
+  std::vector<mjtNum> jacobian(m->nv);
+  PistonJacobian(m, d, cyl, jacobian.data());
+  EXPECT_NEAR(jacobian[0], lever, 1e-15);
+  // the chambers push with A (p_P - p_N) = 2e-4 * 1.5e5 = 30 N along the cylinder: 30 N * dL/dq on the elbow
+  EXPECT_NEAR(d->qfrc_actuator[0], 30 * lever, 1e-12);
+  EXPECT_NEAR(d->actuator_force[arm.actuator("cyl.P")], 2e-4 * (3e5 - cyl.p_atm) * lever, 1e-12);
+  EXPECT_NEAR(d->actuator_force[arm.actuator("cyl.N")], -2e-4 * (1.5e5 - cyl.p_atm) * lever, 1e-12);
+}
+
+// runs the valve pattern of test_util.h for `steps` steps and returns (qpos, qvel, p_P, p_N) after each
+std::vector<double> PatternRun(const std::string& xml, int steps) {
+  AttachedModel arm;
+  EXPECT_TRUE(arm.Load(xml)) << arm.error();
+  if (!arm.m()) return {};
+  std::vector<double> out;
+  const CylinderInfo cyl = arm.cylinder();
+  for (int i = 0; i < steps; ++i) {
+    testing::PatternCommand(cyl, arm.d(), i);
+    mj_step(arm.m(), arm.d());
+    out.insert(out.end(), {arm.d()->qpos[0], arm.d()->qvel[0], ChamberPressure(arm.m(), arm.d(), cyl, Chamber::kP),
+                           ChamberPressure(arm.m(), arm.d(), cyl, Chamber::kN)});
+  }
+  return out;
+}
+
+TEST_F(Transmission, HingeSitesStepLikeATendonOverTheSameSites) {
+  // the same physics as MuJoCo's spatial tendon, to round-off: 1 s of switching valves (the arm
+  // swings through about 1.3 rad; the sites' geometry is the tendon's, computed another way)
+  const std::vector<double> tendon = PatternRun(TendonArm(), 5000);
+  const std::vector<double> sites = PatternRun(HingeSitesArm(), 5000);
+  ASSERT_EQ(tendon.size(), sites.size());
+  double swing = 0;
+  for (size_t i = 0; i < tendon.size(); i += 4) swing = std::max(swing, std::fabs(tendon[i]));
+  EXPECT_GT(swing, 0.3);
+  for (size_t i = 0; i < tendon.size(); ++i) {
+    const double scale = i % 4 < 2 ? 1.0 : 6e5;  // rad, rad/s; Pa
+    ASSERT_NEAR(sites[i], tendon[i], 1e-9 * scale) << "step " << i / 4 << ", signal " << i % 4;
+  }
+}
+
+TEST_F(Transmission, HingeSitesModelCopyStepsLikeItsOriginal) {
+  AttachedModel arm;
+  ASSERT_TRUE(arm.Load(HingeSitesArm())) << arm.error();
+  mjModel* copy = mj_copyModel(nullptr, arm.m());
+  mjData* d = mj_makeData(copy);
+  const CylinderInfo cyl = arm.cylinder();
+  testing::RunPattern(arm.m(), arm.d(), cyl, 0, 1000);
+  testing::RunPattern(copy, d, cyl, 0, 1000);
+  EXPECT_TRUE(testing::SameBits(testing::State(arm.m(), arm.d()), testing::State(copy, d)));
+  EXPECT_GT(std::fabs(d->qpos[0]), 0.01);
+  mj_deleteData(d);
+  mj_deleteModel(copy);
+}
+
+TEST_F(Transmission, HingeSitesRefuseWhatTheirGeometryCannotTake) {
+  struct Case {
+    std::string xml;
+    std::vector<std::string> expected;  // pieces of the error
+  };
+  const std::string good = HingeSitesArm();
+  const std::vector<Case> cases = {
+      {testing::ReplaceAll(good, R"(<site name="cyl.rod")", R"(<site name="cyl.pin")"),
+       {"cylinder 'cyl'", "key 'mount'", "site 'cyl.rod' is missing", "'forearm'"}},
+      // the cap on the forearm itself: it would turn with the rod
+      {testing::ReplaceAll(testing::ReplaceAll(good, R"(<site name="cyl.cap" pos="0 -0.1 0"/>)", ""), R"(<site name="cyl.rod")",
+                           R"(<site name="cyl.cap" pos="0 -0.1 0"/><site name="cyl.rod")"),
+       {"key 'mount'", "site 'cyl.cap' is on body 'forearm'", "parent of the hinge's body"}},
+      {testing::ReplaceAll(good, R"(joint="elbow")", R"(joint="elbow" gear="2")"), {"key 'mount'", "gear=\"1\""}},
+      {testing::ReplaceAll(good, R"(type="hinge")", R"(type="slide")"), {"key 'mount'", "hinge"}},
+      {testing::ReplaceAll(good, "mount=hinge_sites", "mount=hinge_sites coulomb_friction=5"), {"key 'coulomb_friction'", "mount=hinge_sites"}},
+      {testing::ReplaceAll(good, R"(<general name="cyl.P" joint="elbow" dyntype="user" gaintype="user"/>)",
+                           R"(<general name="cyl.P" joint="elbow" dyntype="user" gainprm="2e-4"/>)"),
+       {"actuator 'cyl.P'", "gaintype=\"user\"", "lever arm"}},
+      {testing::ReplaceAll(good, "mount=hinge_sites", "mount=hinge"), {"key 'mount'", "transmission hinge_sites"}},
+  };
+  for (const Case& c : cases) {
+    AttachedModel arm;
+    EXPECT_FALSE(arm.Load(c.xml));
+    for (const std::string& piece : c.expected) EXPECT_NE(arm.error().find(piece), std::string::npos) << arm.error();
+  }
 }
 
 }  // namespace

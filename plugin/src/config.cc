@@ -110,6 +110,8 @@ const Param kParams[] = {
      "where each pulse of switched PWM sits in its carrier period: centred on the period's middle (symmetric PWM; its pulse has the same centroid as the averaged model's spread-out opening, so eq. 14 matches it to second order in the period) or from the period's start (edge-aligned PWM, as many microcontroller timers do by default; it shifts each pulse by up to half a period against eq. 14)", nullptr},
     {"commands", Scope::kCylinder, AppliesTo::kAll, "", "actuators", "actuators chambers", 0, 0, false, false,
      "where the valve commands are: their own actuators (<name>.uP and <name>.uN, <name>.u, <name>.duty, <name>.u1..u4), or the ctrl of the chamber actuators (uP, u and duty in <name>.P, uN in <name>.N): two actuators per cylinder instead of three or four, which saves MuJoCo's work on each actuator (a dense moment row each). chambers takes valves without state (no spool_time_constant, no delay_open or delay_close) and at most two commands (not valve=onoff with input=valves)", nullptr},
+    {"mount", Scope::kCylinder, AppliesTo::kAll, "", "transmission", "transmission hinge_sites", 0, 0, false, false,
+     "how the piston follows the joints: through the chamber actuators' transmission (x = actuator length - x_mid: a slide or hinge joint, a slider-crank or a tendon), or hinge_sites: a linear cylinder between the sites <name>.cap (on the parent body of a hinge) and <name>.rod (on the hinge's body), x = |rod - cap| - x_mid, whose length and lever arm the extension computes from the hinge (the chamber actuators drive that hinge, gear 1, gaintype user: their force is the torque the cylinder exerts). The same physics as a two-site spatial tendon, without MuJoCo's tendon work (Jacobians of both sites, a dense moment row) on every step", nullptr},
     {"thermal_model", Scope::kCylinder, AppliesTo::kAll, "", "polytropic", "polytropic energy", 0, 0, false, false,
      "gas temperature: polytropic chambers at a fixed temperature (default), or the energy equation of an open chamber with heat exchange with the wall at temperature (Richer and Hurmuzlu 2000; state actuators <name>.TP, <name>.TN; needs wall_heat_conductance)", nullptr},
     {"coulomb_friction", Scope::kCylinder, AppliesTo::kAll, "N (N m)", "none", nullptr, 0, 1e6, false, false,
@@ -415,6 +417,10 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
     if (!parser.Choice(*FindParam("commands"), "commands", text_value, &index)) return std::nullopt;
     c.commands = static_cast<CommandPlace>(index);
   }
+  if (lookup(raw.cylinder, *FindParam("mount"), &text_value)) {
+    if (!parser.Choice(*FindParam("mount"), "mount", text_value, &index)) return std::nullopt;
+    c.mount = static_cast<Mount>(index);
+  }
   if (lookup(raw.cylinder, *FindParam("step"), &text_value)) {
     if (!parser.Choice(*FindParam("step"), "step", text_value, &index)) return std::nullopt;
     c.step = static_cast<ChamberStep>(index);
@@ -514,6 +520,11 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
   // relations between keys
   if (c.p_supply <= c.p_exhaust) {
     return fail("p_supply", "must exceed p_exhaust (" + FormatBound(c.p_exhaust) + " Pa)");
+  }
+  if (c.mount == Mount::kHingeSites && c.coulomb_friction) {
+    return fail("coulomb_friction", "seal friction takes its static level from the transmission's frictionloss, in "
+                                    "piston units; with mount=hinge_sites the lever arm changes with the angle: "
+                                    "use mount=transmission (a spatial tendon between the two sites)");
   }
   if (c.friction_model == FrictionModel::kLuGre) {
     if (!c.coulomb_friction) {
@@ -628,6 +639,7 @@ int ChoiceIndex(const CylinderConfig& c, const std::string& key, int k) {
   if (key == "input") return static_cast<int>(c.input);
   if (key == "pwm_alignment") return static_cast<int>(c.pwm_alignment);
   if (key == "commands") return static_cast<int>(c.commands);
+  if (key == "mount") return static_cast<int>(c.mount);
   if (key == "step") return static_cast<int>(c.step);
   if (key == "friction_model") return static_cast<int>(c.friction_model);
   if (key == "thermal_model") return static_cast<int>(c.thermal_model);
@@ -640,6 +652,7 @@ void SetChoiceIndex(CylinderConfig* c, const std::string& key, int k, int index)
   if (key == "input") c->input = static_cast<CommandInput>(index);
   if (key == "pwm_alignment") c->pwm_alignment = static_cast<PwmAlignment>(index);
   if (key == "commands") c->commands = static_cast<CommandPlace>(index);
+  if (key == "mount") c->mount = static_cast<Mount>(index);
   if (key == "step") c->step = static_cast<ChamberStep>(index);
   if (key == "friction_model") c->friction_model = static_cast<FrictionModel>(index);
   if (key == "thermal_model") c->thermal_model = static_cast<ThermalModel>(index);

@@ -36,6 +36,13 @@ enum class CommandPlace {
   kChambers,   // the ctrl of the chamber actuators: uP, u and duty in "<name>.P", uN in "<name>.N"
 };
 
+// how a cylinder's piston position follows the robot's joints
+enum class Mount {
+  kTransmission,  // x = actuator_length - x_mid: MuJoCo's joint, slider-crank or tendon transmission
+  kHingeSites,    // x = |rod - cap| - x_mid between sites "<name>.cap" and "<name>.rod" on the two bodies of
+                  // one hinge, computed by the extension (no MuJoCo tendon to pay for)
+};
+
 // mass flow through one valve port
 enum class FlowLaw {
   kIso6358,    // sonic conductance and critical ratio (paper 002 eq. 4, paper 003 eq. 3)
@@ -135,6 +142,7 @@ struct CylinderConfig {
   double pwm_frequency = 0;    // Hz; 0 with input=pwm: the averaged model of paper 003 eq. 14
   PwmAlignment pwm_alignment = PwmAlignment::kCenter;
   CommandPlace commands = CommandPlace::kActuators;
+  Mount mount = Mount::kTransmission;
   // seal friction on top of the joint's (or tendon's) frictionloss
   std::optional<double> coulomb_friction;  // N (N m): sliding friction level
   double stribeck_velocity = 0;            // m/s (rad/s)

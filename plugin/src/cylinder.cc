@@ -42,7 +42,65 @@ double ClampedControl(const mjModel* m, const mjData* d, int id) {
 double Act(const mjModel* m, const mjData* d, int id) { return d->act[id - (m->nu - m->na)]; }
 double& ActDot(const mjModel* m, mjData* d, int id) { return d->act_dot[id - (m->nu - m->na)]; }
 
+std::string BodyName(const mjModel* m, int body) {
+  const char* name = mj_id2name(m, mjOBJ_BODY, body);
+  return name ? name : "#" + std::to_string(body);
+}
+
+// mount=hinge_sites: the chamber actuators drive one hinge with gear 1; "<name>.cap" sits on the
+// parent of the hinge's body, "<name>.rod" on the hinge's body, which no other joint moves. Returns
+// what is wrong, or "" after filling info's sites and hinge
+std::string BindHingeSites(const mjModel* m, const std::string& name, int actuator, CylinderInfo* info) {
+  int joint = m->actuator_trnid[2 * actuator];
+  if (m->actuator_trntype[actuator] != mjTRN_JOINT || m->jnt_type[joint] != mjJNT_HINGE) {
+    return "the chamber actuators must drive the hinge the cylinder turns (joint=\"...\" of a hinge)";
+  }
+  const mjtNum* gear = m->actuator_gear + 6 * actuator;
+  if (gear[0] != 1) {
+    return "the chamber actuators need gear=\"1\": their force is the cylinder's torque on the hinge (gear " +
+           FormatNumber(gear[0]) + ")";
+  }
+  int body = m->jnt_bodyid[joint];
+  if (m->body_jntnum[body] != 1) {
+    return "body '" + BodyName(m, body) + "' of hinge '" + mj_id2name(m, mjOBJ_JOINT, joint) +
+           "' has other joints: the rod site would move with them too";
+  }
+  const int wanted_body[2] = {m->body_parentid[body], body};
+  const char* suffix[2] = {".cap", ".rod"};
+  const char* what[2] = {"the barrel's end, on the parent of the hinge's body", "the rod's end, on the hinge's body"};
+  int site[2];
+  for (int i = 0; i < 2; ++i) {
+    std::string site_name = name + suffix[i];
+    site[i] = mj_name2id(m, mjOBJ_SITE, site_name.c_str());
+    if (site[i] < 0) return "site '" + site_name + "' is missing (" + what[i] + " '" + BodyName(m, wanted_body[i]) + "')";
+    if (m->site_bodyid[site[i]] != wanted_body[i]) {
+      return "site '" + site_name + "' is on body '" + BodyName(m, m->site_bodyid[site[i]]) + "'; it must be " +
+             what[i] + " '" + BodyName(m, wanted_body[i]) + "'";
+    }
+  }
+  info->cap_site = site[0], info->rod_site = site[1], info->hinge = joint;
+  return "";
+}
+
 }  // namespace
+
+// mount=hinge_sites: the cylinder's length L = |rod - cap| and its lever arm dL/dq = u . (a x (rod - anchor)),
+// u the unit vector from cap to rod, a the hinge's axis through its anchor (the velocity of a point
+// turning about an axis; the project's own form of the two-site spatial tendon's length and moment)
+HingeGeometry HingeSitesGeometry(const mjData* d, const CylinderInfo& c) {
+  const mjtNum* cap = d->site_xpos + 3 * c.cap_site;
+  const mjtNum* rod = d->site_xpos + 3 * c.rod_site;
+  const mjtNum* axis = d->xaxis + 3 * c.hinge;
+  const mjtNum* anchor = d->xanchor + 3 * c.hinge;
+  mjtNum span[3], lever[3], velocity[3];
+  mju_sub3(span, rod, cap);
+  mju_sub3(lever, rod, anchor);
+  mju_cross(velocity, axis, lever);
+  HingeGeometry g;
+  g.length = mju_norm3(span);
+  g.arm = g.length > 0 ? mju_dot3(span, velocity) / g.length : 0;
+  return g;
+}
 
 std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig config, bool gains_written,
                                             std::string* error) {
@@ -89,8 +147,14 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
     // user as written in MJCF; fixed once attached (WriteGains: +A_P, -A_N)
     double area_gain = k == 0 ? cfg.chamber[0].area : -cfg.chamber[1].area;
     bool fixed = m->actuator_gaintype[id] == mjGAIN_FIXED;
-    if (!(m->actuator_gaintype[id] == mjGAIN_USER || (fixed && gains_written) ||
-          (fixed && m->actuator_gainprm[id * mjNGAIN] == area_gain))) {
+    if (cfg.mount == Mount::kHingeSites) {
+      // the gain changes with the lever arm: the extension's gain callback gives it
+      if (m->actuator_gaintype[id] != mjGAIN_USER) {
+        return fail(full, "needs gaintype=\"user\" (with mount=hinge_sites its force is area * gauge pressure * "
+                          "lever arm, which the extension computes)");
+      }
+    } else if (!(m->actuator_gaintype[id] == mjGAIN_USER || (fixed && gains_written) ||
+                 (fixed && m->actuator_gainprm[id * mjNGAIN] == area_gain))) {
       return fail(full, "needs gaintype=\"user\" (force = area * gauge pressure)");
     }
     if (m->actuator_biastype[id] != mjBIAS_NONE) return fail(full, "needs biastype=\"none\"");
@@ -115,6 +179,12 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
   if (trntype == mjTRN_JOINT || trntype == mjTRN_JOINTINPARENT) c.dof_ = m->jnt_dofadr[m->actuator_trnid[2 * p_id]];
   if (!SameTransmission(m, p_id, n_id)) {
     return fail(name + ".N", "must use the same transmission and gear as '" + p_name + "'");
+  }
+  if (cfg.mount == Mount::kHingeSites) {
+    if (std::string problem = BindHingeSites(m, name, p_id, &c.info_); !problem.empty()) {
+      *error = "cylinder '" + name + "': key 'mount': hinge_sites: " + problem;
+      return std::nullopt;
+    }
   }
 
   // valve commands and states
@@ -328,7 +398,14 @@ void Cylinder::ReadChamberPressures(const mjModel* m, const mjData* d, double p0
   for (int k = 0; k < 2; ++k) p0[k] = Act(m, d, info_.chamber_actuator[k]) + config_.p_atm;
 }
 
+double Cylinder::ChamberGain(const mjData* d, int chamber) const {
+  // force A_P (p_P - p_atm) - A_N (p_N - p_atm) on the piston, rigs.md; paper 001 eq. (1), times dx/dq
+  double arm = HingeSitesGeometry(d, info_).arm;
+  return chamber == 0 ? config_.chamber[0].area * arm : -config_.chamber[1].area * arm;
+}
+
 double Cylinder::EndOfStepPistonRate(const mjModel* m, const mjData* d, const mjtNum* end_velocity) const {
+  if (info_.rod_site >= 0) return HingeSitesGeometry(d, info_).arm * end_velocity[dof_];
   // the piston's rate is the actuator moment times the joint velocities; a joint's is one entry
   const mjtNum* moment = d->actuator_moment + static_cast<size_t>(info_.chamber_actuator[0]) * m->nv;
   return dof_ >= 0 ? moment[dof_] * end_velocity[dof_] : mju_dot(moment, end_velocity, m->nv);
@@ -568,6 +645,8 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
 void Cylinder::WriteGains(mjModel* m) const {
   // force A_P (p_P - p_atm) - A_N (p_N - p_atm), rigs.md; paper 001 eq. (1)
   for (const auto& [id, role] : actuators_) {
+    // mount=hinge_sites: times the lever arm, which changes with the angle (ChamberGain, the gain callback)
+    if (role.role == Role::kChamber && config_.mount == Mount::kHingeSites) continue;
     m->actuator_gaintype[id] = mjGAIN_FIXED;
     mjtNum* gain = m->actuator_gainprm + id * mjNGAIN;
     for (int i = 0; i < mjNGAIN; ++i) gain[i] = 0;
@@ -614,11 +693,31 @@ double Cylinder::FrictionBias(const mjModel* m, const mjData* d) const {
 }
 
 double PistonPosition(const mjModel*, const mjData* d, const CylinderInfo& c) {
+  if (c.rod_site >= 0) return HingeSitesGeometry(d, c).length - c.x_mid;
   return d->actuator_length[c.chamber_actuator[0]] - c.x_mid;
 }
 
 double PistonVelocity(const mjModel*, const mjData* d, const CylinderInfo& c) {
+  // with mount=hinge_sites the chamber actuator's velocity is the hinge's (gear 1), taken by MuJoCo at the
+  // same stage as the sites' positions (after mj_step: the step's start, as a tendon's would be)
+  if (c.rod_site >= 0) return HingeSitesGeometry(d, c).arm * d->actuator_velocity[c.chamber_actuator[0]];
   return d->actuator_velocity[c.chamber_actuator[0]];
+}
+
+void PistonJacobian(const mjModel* m, const mjData* d, const CylinderInfo& c, mjtNum* row) {
+  if (c.rod_site >= 0) {
+    mju_zero(row, m->nv);
+    row[m->jnt_dofadr[c.hinge]] = HingeSitesGeometry(d, c).arm;
+    return;
+  }
+  mju_copy(row, d->actuator_moment + static_cast<size_t>(c.chamber_actuator[0]) * m->nv, m->nv);
+}
+
+int DrivenJoint(const mjModel* m, const CylinderInfo& c) {
+  int id = c.chamber_actuator[0];
+  if (c.rod_site >= 0 || id < 0) return -1;
+  int type = m->actuator_trntype[id];
+  return (type == mjTRN_JOINT || type == mjTRN_JOINTINPARENT) ? m->actuator_trnid[2 * id] : -1;
 }
 
 double ChamberPressure(const mjModel* m, const mjData* d, const CylinderInfo& c, Chamber k) {

@@ -28,6 +28,14 @@ struct PassInputs {
   const mjtNum* end_velocity = nullptr;  // predicted qvel(t + h), nv numbers (null: not needed)
 };
 
+// mount=hinge_sites: the length |rod - cap| (m) of a cylinder spanning the sites of c, and its lever
+// arm dL/dq (m/rad) about c's hinge, from d's kinematics (site_xpos, xaxis, xanchor)
+struct HingeGeometry {
+  double length = 0;
+  double arm = 0;
+};
+HingeGeometry HingeSitesGeometry(const mjData* d, const CylinderInfo& c);
+
 class Cylinder {
  public:
   // Binds the configuration to m's actuators named "<name>.<role>", checks
@@ -44,8 +52,9 @@ class Cylinder {
   struct Binding {
     int dof = -1;
     double static_friction = 0;
+    int cap_site = -1, rod_site = -1;  // mount=hinge_sites
   };
-  Binding binding() const { return {dof_, static_friction_}; }
+  Binding binding() const { return {dof_, static_friction_, info_.cap_site, info_.rod_site}; }
   // true if a step of this cylinder follows the piston's predicted end-of-step velocity (its chambers
   // or its LuGre bristles)
   bool NeedsEndVelocity() const;
@@ -78,6 +87,9 @@ class Cylinder {
   void WriteGains(mjModel* m) const;
   // seal friction (bias of "<cyl>.friction"), on top of the transmission's frictionloss
   double FrictionBias(const mjModel* m, const mjData* d) const;
+  // mount=hinge_sites: the gain of chamber 0 (P) or 1 (N), +A_P or -A_N times the lever arm dx/dq, so
+  // that MuJoCo's force gain * act is the cylinder's torque on its hinge (the gain callback's value)
+  double ChamberGain(const mjData* d, int chamber) const;
 
  private:
   ValveInputs ReadValves(const mjModel* m, const mjData* d, bool zero_commands) const;

@@ -74,6 +74,7 @@ struct CompiledModel {
 struct Previous {
   std::mutex installing;
   std::atomic<mjfAct> dyn{nullptr};
+  std::atomic<mjfAct> gain{nullptr};
   std::atomic<mjfAct> bias{nullptr};
 };
 Previous& GetPrevious() {
@@ -120,6 +121,10 @@ double Fingerprint(const mjModel* m, const std::vector<Cylinder>& cylinders,
     Cylinder::Binding binding = c.binding();
     mix(&binding.dof, sizeof(binding.dof));  // field by field: no padding bytes
     mix(&binding.static_friction, sizeof(binding.static_friction));
+    if (binding.rod_site >= 0) {  // mount=hinge_sites (nothing for the others: their fingerprints are as before)
+      mix(&binding.cap_site, sizeof(binding.cap_site));
+      mix(&binding.rod_site, sizeof(binding.rod_site));
+    }
   }
   // reservoirs and the links to them (nothing for a model without: its fingerprint is as before)
   if (!reservoirs.empty()) {
@@ -398,7 +403,8 @@ bool AnyBadControl(const mjModel* m, const mjData* d) {
 bool ForcesAreCurrent(const mjModel* m, const mjData* d, const CompiledModel& model) {
   for (const Cylinder& c : model.cylinders) {
     int id = c.info().chamber_actuator[0];
-    double force = m->actuator_gainprm[id * mjNGAIN] * d->act[id - (m->nu - m->na)];
+    double gain = c.config().mount == Mount::kHingeSites ? c.ChamberGain(d, 0) : m->actuator_gainprm[id * mjNGAIN];
+    double force = gain * d->act[id - (m->nu - m->na)];
     if (m->actuator_forcelimited[id]) force = Clip(force, m->actuator_forcerange[2 * id], m->actuator_forcerange[2 * id + 1]);
     if (d->actuator_force[id] != force) return false;
   }
@@ -527,6 +533,19 @@ mjtNum ActDyn(const mjModel* m, const mjData* d, int id) {
   return d->act_dot[id - (m->nu - m->na)];
 }
 
+// gaintype="user": the chambers of a cylinder with mount=hinge_sites (their gain follows the lever arm);
+// every other pneumatic actuator with a user gain applies no force
+mjtNum ActGain(const mjModel* m, const mjData* d, int id) {
+  const CompiledModel* model = Lookup(m, id);
+  if (model && model->roles[id].role == Role::kChamber) {
+    const Cylinder& c = model->cylinders[model->roles[id].cylinder];
+    if (c.config().mount == Mount::kHingeSites) return c.ChamberGain(d, model->roles[id].index);
+  }
+  if (model) return 0;
+  mjfAct previous = GetPrevious().gain.load(std::memory_order_relaxed);
+  return previous ? previous(m, d, id) : 0;
+}
+
 mjtNum ActBias(const mjModel* m, const mjData* d, int id) {
   const CompiledModel* model = Lookup(m, id);
   if (model && model->roles[id].role == Role::kFriction) {
@@ -539,11 +558,13 @@ mjtNum ActBias(const mjModel* m, const mjData* d, int id) {
 
 // ours in MuJoCo's global callbacks, keeping whatever was there to serve the other actuators;
 // they stay installed (a model needs no detaching), and a later Attach takes them back if
-// someone replaced them
-void InstallCallbacks() {
+// someone replaced them. The gain callback only for a model whose gains change with its pose
+// (mount=hinge_sites): every other pneumatic gain is fixed in the model
+void InstallCallbacks(bool gain) {
   Previous& previous = GetPrevious();
   std::lock_guard<std::mutex> lock(previous.installing);
   if (mjcb_act_dyn != ActDyn) previous.dyn = mjcb_act_dyn, mjcb_act_dyn = ActDyn;
+  if (gain && mjcb_act_gain != ActGain) previous.gain = mjcb_act_gain, mjcb_act_gain = ActGain;
   if (mjcb_act_bias != ActBias) previous.bias = mjcb_act_bias, mjcb_act_bias = ActBias;
 }
 
@@ -579,8 +600,11 @@ bool StoreModel(mjModel* m, std::shared_ptr<CompiledModel> model, std::string* e
     return false;
   }
   Store(m, *model);
+  const bool pose_dependent_gains = std::any_of(model->cylinders.begin(), model->cylinders.end(), [](const Cylinder& c) {
+    return c.config().mount == Mount::kHingeSites;
+  });
   GetThreadCache().Add(std::move(model));
-  InstallCallbacks();
+  InstallCallbacks(pose_dependent_gains);
   return true;
 }
 

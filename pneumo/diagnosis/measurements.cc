@@ -78,11 +78,11 @@ std::optional<Measurements> PrepareMeasurements(const mjModel* m, const log::Log
     CylinderSeries c;
     c.info = info;
     const int id = info.chamber_actuator[0];
-    const int type = m->actuator_trntype[id];
-    if (type != mjTRN_JOINT && type != mjTRN_JOINTINPARENT) {
-      return fail("cylinder '" + info.name + "' drives a tendon or slider-crank; the diagnosis needs joint-driven cylinders");
+    c.joint = DrivenJoint(m, info);
+    if (c.joint < 0) {
+      return fail("cylinder '" + info.name + "' drives a tendon or slider-crank, or is mounted between sites; the "
+                  "diagnosis needs joint-driven cylinders");
     }
-    c.joint = m->actuator_trnid[2 * id];
     c.gear = m->actuator_gear[6 * id];
     std::string ignored;
     c.stroke = GetParameter(m, info.name, "stroke", &ignored).value_or(0);

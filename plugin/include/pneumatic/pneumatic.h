@@ -32,8 +32,8 @@ int ActuatorUserSize();
 
 // Reads the pneumatic cylinders of m, validates their configuration, stores it in
 // m (actuator_user; the gains of the cylinders' actuators become fixed) and
-// installs MuJoCo's actuator callbacks mjcb_act_dyn and mjcb_act_bias, once per
-// process; callbacks installed before keep serving every actuator that is not
+// installs MuJoCo's actuator callbacks mjcb_act_dyn and mjcb_act_bias (and mjcb_act_gain for
+// a model with mount=hinge_sites), once per process; callbacks installed before keep serving every actuator that is not
 // pneumatic. Returns false and fills *error (naming the cylinder, actuator and
 // key) if the configuration is invalid; m is unchanged then. A model without any
 // "pneumatic:" element attaches with no cylinders. Attaching again re-reads the
@@ -94,19 +94,32 @@ struct CylinderInfo {
   double p_atm = 0;       // Pa abs: the reference of the gauge activations
   double p_supply = 0;    // Pa abs
   double p_exhaust = 0;   // Pa abs
-  double x_mid = 0;       // actuator length at mid-stroke (m or rad)
+  double x_mid = 0;       // actuator length at mid-stroke (m or rad); with mount=hinge_sites, |rod - cap| there
+  // mount=hinge_sites: the sites "<name>.cap" and "<name>.rod" the cylinder spans and the hinge it turns
+  // (its chamber actuators' joint); -1 for a cylinder that moves with its transmission
+  int cap_site = -1, rod_site = -1, hinge = -1;
 };
 
 // The cylinders of an attached model (empty if m is not attached).
 std::vector<CylinderInfo> Cylinders(const mjModel* m);
 
 // Piston position x (m, or rad for a rotary cylinder): actuator length minus
-// the length at mid-stroke; requires d->actuator_length to be current
-// (mj_forward or mj_step has run).
+// the length at mid-stroke, or |rod - cap| minus it with mount=hinge_sites; requires
+// d->actuator_length (d->site_xpos) to be current (mj_forward or mj_step has run).
 double PistonPosition(const mjModel* m, const mjData* d, const CylinderInfo& c);
 
-// Piston velocity dx/dt, from d->actuator_velocity.
+// Piston velocity dx/dt, from d->actuator_velocity (with mount=hinge_sites: the lever arm times the
+// hinge's velocity).
 double PistonVelocity(const mjModel* m, const mjData* d, const CylinderInfo& c);
+
+// The piston's Jacobian dx/dq (nv numbers into `row`): the chamber actuator's moment row, or with
+// mount=hinge_sites the lever arm d|rod - cap|/dq on the hinge's dof. Requires the position stage
+// (mj_kinematics, mj_comPos, mj_tendon, mj_transmission) to be current.
+void PistonJacobian(const mjModel* m, const mjData* d, const CylinderInfo& c, mjtNum* row);
+
+// The joint whose coordinate the piston position is proportional to (x = gear q - x_mid: a slide or
+// hinge joint transmission), or -1 (a tendon, a slider-crank, or mount=hinge_sites).
+int DrivenJoint(const mjModel* m, const CylinderInfo& c);
 
 // Absolute chamber pressure (Pa) read from, or written to, d->act.
 double ChamberPressure(const mjModel* m, const mjData* d, const CylinderInfo& c, Chamber k);
