@@ -4,10 +4,10 @@
 // variant and humanoid_motors.xml, each stepped from its reset state with constant commands (the
 // valves at their centre plus 0.5 V, the motors at 0), reset every 2 s of simulated time; also
 // humanoid_pneumatic.xml not attached (its chambers stay at p_atm and push nothing, the robot hangs
-// limp as the twin with its motors at 0 does): what MuJoCo alone spends on its tendons and its
-// actuators, the floor under the pneumatic model's cost whatever the extension does; each
-// model runs about 1 s of wall time after a 0.2 s warm-up, five runs alternating the models, the
-// median reported. The real-time factor is simulated time over wall time.
+// limp as the twin with its motors at 0 does): what MuJoCo alone spends on its two actuators per
+// cylinder (its linear cylinders are mount=hinge_sites: no MuJoCo tendons), the floor under the
+// pneumatic model's cost whatever the extension does; each model runs about 1 s of wall time after a
+// 0.2 s warm-up, five runs alternating the models, the median reported. The real-time factor is simulated time over wall time.
 //
 // Rollouts: `pneumo rollout --controller pid --controller-config models_mjcf/humanoid_pid.json` on
 // the humanoid (pneumo/closed_loop.h; the shipped gains, as scripts/demo runs it: every tick also
@@ -35,7 +35,7 @@ using Clock = std::chrono::steady_clock;
 struct Model {
   const char* name;
   const char* file;
-  bool attach = true;  // false: MuJoCo's own work on the model's tendons and actuators, no pressure physics
+  bool attach = true;  // false: MuJoCo's own work on the model's actuators, no pressure physics
   mjModel* m = nullptr;
   mjData* d = nullptr;
 };
@@ -105,7 +105,7 @@ int main() {
   std::vector<Model> models = {
       {"humanoid_pneumatic", "humanoid_pneumatic.xml"},
       {"humanoid_pneumatic_identified", "humanoid_pneumatic_identified.xml"},
-      {"humanoid_pneumatic, not attached (MuJoCo alone: its tendons and actuators, no pressure physics)",
+      {"humanoid_pneumatic, not attached (MuJoCo alone: its actuators, no pressure physics)",
        "humanoid_pneumatic.xml", false},
       {"humanoid_motors", "humanoid_motors.xml"}};
   for (Model& model : models) {

@@ -6,6 +6,7 @@
 // pushes (b -> +1), blue as N pushes (b -> -1), PressureColor(). What carries the colour:
 //  - a cylinder on a tendon (a linear cylinder between two sites): the tendon, drawn with the
 //    bore radius sqrt(A_P / pi) instead of its width, so it looks like the cylinder's body;
+//  - a cylinder with mount=hinge_sites: a capsule of the bore radius between its two sites;
 //  - a cylinder on a slide joint: a cylinder of the bore radius along the joint axis, one stroke
 //    long, centred where the joint's anchor is at mid-stroke (the chamber space the piston
 //    travels in; the model's own piston geoms move through it);

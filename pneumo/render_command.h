@@ -30,7 +30,8 @@ struct RenderOptions {
 // d: chamber pressures from p_P and p_N, and for cylinders driven directly by a slide or hinge
 // joint the piston position x (and velocity v) through the joint, as `pneumo rollout` starts
 // from a log. What the log does not give stays as it is in d. "" or why not: a time outside the
-// log, or x or v of a cylinder on a tendon or slider-crank (its joints cannot be solved from x).
+// log, or x or v of a cylinder on a tendon, slider-crank or between sites (its joints cannot be
+// solved from x).
 // Call mj_forward afterwards.
 std::string SetStateFromLog(const mjModel* m, mjData* d, const log::Log& log, std::optional<double> time);
 

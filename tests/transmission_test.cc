@@ -7,6 +7,7 @@
 // balance (equal areas: p_P = p_N).
 #include <cmath>
 #include <functional>
+#include <iostream>
 #include <string>
 #include <vector>
 
@@ -212,7 +213,7 @@ std::vector<double> PatternRun(const std::string& xml, int steps) {
 }
 
 TEST_F(Transmission, HingeSitesStepLikeATendonOverTheSameSites) {
-  // the same physics as MuJoCo's spatial tendon, to round-off: 1 s of switching valves (the arm
+  // the same physics as MuJoCo's spatial tendon, to round-off (measured 1.8e-14): 1 s of switching valves (the arm
   // swings through about 1.3 rad; the sites' geometry is the tendon's, computed another way)
   const std::vector<double> tendon = PatternRun(TendonArm(), 5000);
   const std::vector<double> sites = PatternRun(HingeSitesArm(), 5000);
@@ -220,10 +221,15 @@ TEST_F(Transmission, HingeSitesStepLikeATendonOverTheSameSites) {
   double swing = 0;
   for (size_t i = 0; i < tendon.size(); i += 4) swing = std::max(swing, std::fabs(tendon[i]));
   EXPECT_GT(swing, 0.3);
+  // the worst difference, in rad, rad/s and units of p_supply (Pa / 6e5)
+  double worst = 0;
+  size_t at = 0;
   for (size_t i = 0; i < tendon.size(); ++i) {
-    const double scale = i % 4 < 2 ? 1.0 : 6e5;  // rad, rad/s; Pa
-    ASSERT_NEAR(sites[i], tendon[i], 1e-9 * scale) << "step " << i / 4 << ", signal " << i % 4;
+    const double difference = std::fabs(sites[i] - tendon[i]) / (i % 4 < 2 ? 1.0 : 6e5);
+    if (difference > worst) worst = difference, at = i;
   }
+  EXPECT_LT(worst, 1e-11) << "step " << at / 4 << ", signal " << at % 4 << " (qpos, qvel, p_P, p_N)";
+  std::cout << "hinge_sites against the tendon: worst difference " << worst << " at step " << at / 4 << "\n";
 }
 
 TEST_F(Transmission, HingeSitesModelCopyStepsLikeItsOriginal) {

@@ -88,17 +88,20 @@ std::string BindHingeSites(const mjModel* m, const std::string& name, int actuat
 // u the unit vector from cap to rod, a the hinge's axis through its anchor (the velocity of a point
 // turning about an axis; the project's own form of the two-site spatial tendon's length and moment)
 HingeGeometry HingeSitesGeometry(const mjData* d, const CylinderInfo& c) {
+  // written out rather than through mju_sub3, mju_cross and mju_norm3: it runs several times per step
+  // for every such cylinder, and MuJoCo's vector functions are calls into its library
   const mjtNum* cap = d->site_xpos + 3 * c.cap_site;
   const mjtNum* rod = d->site_xpos + 3 * c.rod_site;
-  const mjtNum* axis = d->xaxis + 3 * c.hinge;
+  const mjtNum* a = d->xaxis + 3 * c.hinge;
   const mjtNum* anchor = d->xanchor + 3 * c.hinge;
-  mjtNum span[3], lever[3], velocity[3];
-  mju_sub3(span, rod, cap);
-  mju_sub3(lever, rod, anchor);
-  mju_cross(velocity, axis, lever);
+  const double span[3] = {rod[0] - cap[0], rod[1] - cap[1], rod[2] - cap[2]};
+  const double lever[3] = {rod[0] - anchor[0], rod[1] - anchor[1], rod[2] - anchor[2]};
+  // the rod end's velocity per unit hinge rate, a x lever
+  const double turn[3] = {a[1] * lever[2] - a[2] * lever[1], a[2] * lever[0] - a[0] * lever[2],
+                          a[0] * lever[1] - a[1] * lever[0]};
   HingeGeometry g;
-  g.length = mju_norm3(span);
-  g.arm = g.length > 0 ? mju_dot3(span, velocity) / g.length : 0;
+  g.length = std::sqrt(span[0] * span[0] + span[1] * span[1] + span[2] * span[2]);
+  g.arm = g.length > 0 ? (span[0] * turn[0] + span[1] * turn[1] + span[2] * turn[2]) / g.length : 0;
   return g;
 }
 
@@ -375,7 +378,7 @@ ValveInputs Cylinder::ReadValves(const mjModel* m, const mjData* d, bool zero_co
   return in;
 }
 
-VolumePath Cylinder::Volume(const mjModel* m, const mjData* d, int chamber, double x_rate) const {
+VolumePath Cylinder::Volume(int chamber, double x, double x_rate) const {
   const ChamberConfig& k = config_.chamber[chamber];
   // chamber P grows with x, chamber N shrinks (rigs.md volumes)
   double sign = chamber == 0 ? 1.0 : -1.0;
@@ -383,7 +386,7 @@ VolumePath Cylinder::Volume(const mjModel* m, const mjData* d, int chamber, doub
   v.dead_volume = k.dead_volume;
   v.area = k.area;
   v.stroke = config_.stroke;
-  v.swept = config_.stroke / 2 + sign * PistonPosition(m, d, info_);
+  v.swept = config_.stroke / 2 + sign * x;
   v.swept_rate = sign * x_rate;
   return v;
 }
@@ -404,15 +407,30 @@ double Cylinder::ChamberGain(const mjData* d, int chamber) const {
   return chamber == 0 ? config_.chamber[0].area * arm : -config_.chamber[1].area * arm;
 }
 
-double Cylinder::EndOfStepPistonRate(const mjModel* m, const mjData* d, const mjtNum* end_velocity) const {
-  if (info_.rod_site >= 0) return HingeSitesGeometry(d, info_).arm * end_velocity[dof_];
-  // the piston's rate is the actuator moment times the joint velocities; a joint's is one entry
-  const mjtNum* moment = d->actuator_moment + static_cast<size_t>(info_.chamber_actuator[0]) * m->nv;
-  return dof_ >= 0 ? moment[dof_] * end_velocity[dof_] : mju_dot(moment, end_velocity, m->nv);
+Cylinder::PistonMotion Cylinder::Motion(const mjModel* m, const mjData* d, const mjtNum* end_velocity) const {
+  const int p = info_.chamber_actuator[0];
+  PistonMotion motion;
+  if (info_.rod_site >= 0) {
+    // mount=hinge_sites: the chamber actuators' velocity is the hinge's (gear 1)
+    const HingeGeometry g = HingeSitesGeometry(d, info_);
+    motion.x = g.length - info_.x_mid;
+    motion.velocity = g.arm * d->actuator_velocity[p];
+    motion.end_rate = end_velocity ? g.arm * end_velocity[dof_] : motion.velocity;
+    return motion;
+  }
+  motion.x = d->actuator_length[p] - info_.x_mid;
+  motion.velocity = d->actuator_velocity[p];
+  motion.end_rate = motion.velocity;
+  if (end_velocity) {
+    // the piston's rate is the actuator moment times the joint velocities; a joint's is one entry
+    const mjtNum* moment = d->actuator_moment + static_cast<size_t>(p) * m->nv;
+    motion.end_rate = dof_ >= 0 ? moment[dof_] * end_velocity[dof_] : mju_dot(moment, end_velocity, m->nv);
+  }
+  return motion;
 }
 
-double Cylinder::StartStep(const mjModel* m, mjData* d, const PassInputs& pass, ValveInputs* valves_out,
-                           double p0[2]) const {
+Cylinder::PistonMotion Cylinder::StartStep(const mjModel* m, mjData* d, const PassInputs& pass,
+                                           ValveInputs* valves_out, double p0[2], double* x_rate) const {
   const double h = m->opt.timestep;
   ValveInputs& valves = *valves_out;
   valves = ReadValves(m, d, pass.zero_commands);
@@ -434,19 +452,15 @@ double Cylinder::StartStep(const mjModel* m, mjData* d, const PassInputs& pass, 
   ReadChamberPressures(m, d, p0);
   // MuJoCo's Euler and implicit integrators move the piston over the step with the velocity at its
   // end; the chamber steps follow that path (plain explicit Euler uses the velocity at the start)
-  double x_rate = PistonVelocity(m, d, info_);
-  double end_rate = x_rate;
-  if (pass.end_velocity && NeedsEndVelocity()) {
-    end_rate = EndOfStepPistonRate(m, d, pass.end_velocity);
-    if (ChambersFollowEndVelocity()) x_rate = end_rate;
-  }
+  const PistonMotion motion = Motion(m, d, pass.end_velocity && NeedsEndVelocity() ? pass.end_velocity : nullptr);
+  *x_rate = ChambersFollowEndVelocity() ? motion.end_rate : motion.velocity;
   // LuGre bristles: moved over the step at the velocity MuJoCo moves the piston with (the end-of-step
   // velocity, as the chambers' volumes), in closed form
   if (config_.friction_model == FrictionModel::kLuGre) {
     int id = extra_state_id_[kBristle];
-    ActDot(m, d, id) = BristleMeanRate(Act(m, d, id), end_rate, h);
+    ActDot(m, d, id) = BristleMeanRate(Act(m, d, id), motion.end_rate, h);
   }
-  return x_rate;
+  return motion;
 }
 
 void Cylinder::BeginStep(const mjModel* m, mjData* d, const PassInputs& pass, BatchedChamber chambers[2]) const {
@@ -454,14 +468,16 @@ void Cylinder::BeginStep(const mjModel* m, mjData* d, const PassInputs& pass, Ba
   ValveInputs valves;
   double p0[2];
   double x_rate = 0;
+  PistonMotion motion;
   if (voltages_only_) {
     // StartStep's work where the two valve voltages are all the cylinder's inputs: nothing else to read or
     // to step
     for (int k = 0; k < 2; ++k) valves.command[k] = pass.zero_commands ? 0.0 : ClampedControl(m, d, command_id_[k]);
     ReadChamberPressures(m, d, p0);
-    x_rate = pass.end_velocity ? EndOfStepPistonRate(m, d, pass.end_velocity) : PistonVelocity(m, d, info_);
+    motion = Motion(m, d, pass.end_velocity);
+    x_rate = motion.end_rate;
   } else {
-    x_rate = StartStep(m, d, pass, &valves, p0);
+    motion = StartStep(m, d, pass, &valves, p0, &x_rate);
   }
   for (int k = 0; k < 2; ++k) {
     BatchedChamber& c = chambers[k];
@@ -474,7 +490,7 @@ void Cylinder::BeginStep(const mjModel* m, mjData* d, const PassInputs& pass, Ba
       c.open_start = ports.At(0), c.open_end = ports.At(h);
       c.held = ports.breakpoints().empty();
     }
-    c.volume = Volume(m, d, k, x_rate);
+    c.volume = Volume(k, motion.x, x_rate);
     c.p0 = p0[k];
     c.p1 = p0[k];
     c.done = false;
@@ -500,7 +516,8 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
   const double h = m->opt.timestep;
   ValveInputs valves;
   double p0[2], p1[2] = {0, 0}, rate[2];
-  double x_rate = StartStep(m, d, pass, &valves, p0);
+  double x_rate = 0;
+  const PistonMotion motion = StartStep(m, d, pass, &valves, p0, &x_rate);
   // the chambers' models; a reservoir's pressure at the start of the step on the supply ports (copies
   // made only then, in storage left uninitialised otherwise: a ChamberModel is large, and the common
   // case needs none)
@@ -521,8 +538,7 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
     if (physical[k]) continue;
     // the chamber's own valve voltage, or the single 5/3 valve's duplicated (paper 000 Section V)
     double u = config_.valve == ValveKind::kProportionalPerChamber ? valves.command[k] : valves.command[0];
-    SteadyStateAndRate sr = IdentifiedModel(config_.chamber[k].identified, u, PistonPosition(m, d, info_),
-                                            PistonVelocity(m, d, info_));
+    SteadyStateAndRate sr = IdentifiedModel(config_.chamber[k].identified, u, motion.x, motion.velocity);
     rate[k] = config_.step == ChamberStep::kExplicit ? (sr.s - p0[k]) * sr.r
                                                      : (IdentifiedPressureStep(sr, p0[k], h) - p0[k]) / h;
   }
@@ -538,7 +554,7 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
     }
     for (int k = 0; k < 2; ++k) {
       double drawn = 0;
-      GasState end = EnergyPressureStep(models[k], ports[k], Volume(m, d, k, x_rate), leak, config_.piston_leak_area,
+      GasState end = EnergyPressureStep(models[k], ports[k], Volume(k, motion.x, x_rate), leak, config_.piston_leak_area,
                                         gas[1 - k], gas[k], h, supply_drawn ? &drawn : nullptr);
       rate[k] = (end.p - p0[k]) / h;
       ActDot(m, d, extra_state_id_[kTemperatureP + k]) = (end.t - gas[k].t) / h;
@@ -551,7 +567,7 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
   // the physical model: the valves' openings over the step and the volumes along the piston's path
   if (physical[0] || physical[1]) {
     PortSchedule ports[2] = {{config_, 0, valves}, {config_, 1, valves}};
-    VolumePath volume[2] = {Volume(m, d, 0, x_rate), Volume(m, d, 1, x_rate)};
+    VolumePath volume[2] = {Volume(0, motion.x, x_rate), Volume(1, motion.x, x_rate)};
     // the linearized step: both chambers together when the leak across the piston couples them
     bool done[2] = {false, false};
     // a chamber behind a line (line_volume > 0; the parser refuses step=explicit and the piston leak with

@@ -93,17 +93,25 @@ class Cylinder {
 
  private:
   ValveInputs ReadValves(const mjModel* m, const mjData* d, bool zero_commands) const;
+  // the piston over one step, read once (with mount=hinge_sites, one evaluation of the sites' geometry)
+  struct PistonMotion {
+    double x = 0;         // position at the step's start (m or rad)
+    double velocity = 0;  // dx/dt at the step's start
+    double end_rate = 0;  // dx/dt at the predicted end of the step (velocity without a prediction)
+  };
+  // `end_velocity`: the predicted joint velocities at the step's end, or null
+  PistonMotion Motion(const mjModel* m, const mjData* d, const mjtNum* end_velocity) const;
   // the start of every step: reads the valves (*valves) and writes the act_dot of the valve states, the
-  // delay lines and the LuGre bristles; the chambers' pressures p0 (Pa abs); returns the piston's rate
-  // that moves the chambers' volumes over the step
-  double StartStep(const mjModel* m, mjData* d, const PassInputs& pass, ValveInputs* valves, double p0[2]) const;
+  // delay lines and the LuGre bristles; the chambers' pressures p0 (Pa abs); returns the piston's motion,
+  // and in *x_rate the rate that moves the chambers' volumes over the step
+  PistonMotion StartStep(const mjModel* m, mjData* d, const PassInputs& pass, ValveInputs* valves, double p0[2],
+                         double* x_rate) const;
   // the chambers' pressures at the start of the step (Pa abs)
   void ReadChamberPressures(const mjModel* m, const mjData* d, double p0[2]) const;
-  // the piston's rate at the predicted end of the step, from the predicted joint velocities
-  double EndOfStepPistonRate(const mjModel* m, const mjData* d, const mjtNum* end_velocity) const;
   // the extra-state slot of state x1 (x2: the next) of command channel ch's dead-time delay line
   int DelaySlot(int channel) const;
-  VolumePath Volume(const mjModel* m, const mjData* d, int chamber, double x_rate) const;
+  // chamber's volume over the step from piston position x, moving at x_rate
+  VolumePath Volume(int chamber, double x, double x_rate) const;
 
   CylinderConfig config_;
   CylinderInfo info_;
