@@ -6,8 +6,11 @@
 // humanoid_pneumatic.xml not attached (its chambers stay at p_atm and push nothing, the robot hangs
 // limp as the twin with its motors at 0 does): what MuJoCo alone spends on its two actuators per
 // cylinder (its linear cylinders are mount=hinge_sites: no MuJoCo tendons), the floor under the
-// pneumatic model's cost whatever the extension does; each model runs about 1 s of wall time after a
-// 0.2 s warm-up, five runs alternating the models, the median reported. The real-time factor is simulated time over wall time.
+// pneumatic model's cost whatever the extension does; and humanoid_pneumatic.xml with its linear
+// cylinders on spatial tendons over the same two sites instead of mount=hinge_sites, what that mount
+// saves (the same physics to round-off, tests/transmission_test). Each model runs about 1 s of wall
+// time after a 0.2 s warm-up, five runs alternating the models, the median reported. The real-time
+// factor is simulated time over wall time.
 //
 // Rollouts: `pneumo rollout --controller pid --controller-config models_mjcf/humanoid_pid.json` on
 // the humanoid (pneumo/closed_loop.h; the shipped gains, as scripts/demo runs it: every tick also
@@ -16,7 +19,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
+#include <fstream>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -36,13 +42,50 @@ struct Model {
   const char* name;
   const char* file;
   bool attach = true;  // false: MuJoCo's own work on the model's actuators, no pressure physics
+  bool on_tendons = false;  // true: the linear cylinders on spatial tendons (OnSpatialTendons)
   mjModel* m = nullptr;
   mjData* d = nullptr;
 };
 
-mjModel* Load(const std::string& file, bool attach) {
+// the MJCF text with every mount=hinge_sites cylinder on a spatial tendon over its two sites instead
+// (mount=transmission): the same physics to round-off (tests/transmission_test), with MuJoCo's tendon work
+std::string OnSpatialTendons(std::string xml) {
+  const std::string key = " mount=hinge_sites";
+  std::string tendons = "<tendon>\n";
+  for (size_t at = xml.find(key); at != std::string::npos; at = xml.find(key)) {
+    const size_t name_start = xml.rfind("pneumatic:", at) + std::strlen("pneumatic:");
+    const std::string name = xml.substr(name_start, xml.find('"', name_start) - name_start);
+    xml.erase(at, key.size());
+    tendons += "<spatial name=\"" + name + "\"><site site=\"" + name + ".cap\"/><site site=\"" + name + ".rod\"/></spatial>\n";
+    for (const char* chamber : {".P", ".N"}) {
+      const std::string element = "name=\"" + name + chamber + "\" joint=\"";
+      const size_t joint = xml.find(element);
+      if (joint == std::string::npos) return "";
+      const size_t value = joint + element.size() - std::strlen("joint=\"");
+      xml.replace(value, xml.find('"', value + std::strlen("joint=\"")) + 1 - value, "tendon=\"" + name + "\"");
+    }
+  }
+  return xml.replace(xml.find("<actuator>"), 0, tendons + "</tendon>\n");
+}
+
+mjModel* Load(const std::string& file, bool attach, bool on_tendons = false) {
   char error[1000] = "";
-  mjModel* m = mj_loadXML((std::string(PNEUMATIC_MODELS_DIR) + "/" + file).c_str(), nullptr, error, sizeof(error));
+  const std::string path = std::string(PNEUMATIC_MODELS_DIR) + "/" + file;
+  mjModel* m = nullptr;
+  if (on_tendons) {
+    std::ifstream in(path);
+    std::stringstream text;
+    text << in.rdbuf();
+    const std::string xml = OnSpatialTendons(text.str());
+    auto vfs = std::make_unique<mjVFS>();  // 2 MB of file names: not on the stack
+    mj_defaultVFS(vfs.get());
+    mj_makeEmptyFileVFS(vfs.get(), "model.xml", static_cast<int>(xml.size()));
+    std::memcpy(vfs->filedata[0], xml.data(), xml.size());
+    m = xml.empty() ? nullptr : mj_loadXML("model.xml", vfs.get(), error, sizeof(error));
+    mj_deleteVFS(vfs.get());
+  } else {
+    m = mj_loadXML(path.c_str(), nullptr, error, sizeof(error));
+  }
   std::string why;
   if (!m || (attach && !pneumatic::Attach(m, &why))) {
     std::fprintf(stderr, "%s: %s%s\n", file.c_str(), error, why.c_str());
@@ -107,9 +150,11 @@ int main() {
       {"humanoid_pneumatic_identified", "humanoid_pneumatic_identified.xml"},
       {"humanoid_pneumatic, not attached (MuJoCo alone: its actuators, no pressure physics)",
        "humanoid_pneumatic.xml", false},
+      {"humanoid_pneumatic on 28 spatial tendons over the same sites (mount=transmission)", "humanoid_pneumatic.xml",
+       true, true},
       {"humanoid_motors", "humanoid_motors.xml"}};
   for (Model& model : models) {
-    model.m = Load(model.file, model.attach);
+    model.m = Load(model.file, model.attach, model.on_tendons);
     model.d = mj_makeData(model.m);
   }
   std::vector<std::vector<double>> us(models.size());
