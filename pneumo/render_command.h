@@ -30,8 +30,9 @@ struct RenderOptions {
 // d: chamber pressures from p_P and p_N, and for cylinders driven directly by a slide or hinge
 // joint the piston position x (and velocity v) through the joint, as `pneumo rollout` starts
 // from a log. What the log does not give stays as it is in d. "" or why not: a time outside the
-// log, or x or v of a cylinder on a tendon, slider-crank or between sites (its joints cannot be
-// solved from x).
+// log, or x or v of a cylinder on a tendon or slider-crank (its joints cannot be solved from x). A
+// cylinder mounted between sites (mount=hinge_sites) gets the hinge angle nearest d's present one
+// whose site distance is x + x_mid (HingeAngleAt), and q' = v / (dL/dq).
 // Call mj_forward afterwards.
 std::string SetStateFromLog(const mjModel* m, mjData* d, const log::Log& log, std::optional<double> time);
 

@@ -387,6 +387,45 @@ TEST(RenderCompareImages, ToleratesOnePixelShiftsAndSmallShadingButNotMore) {
 // ---------------------------------------------------------------------------------------------
 // the command and the frame writer
 
+TEST(RenderCommand, SetsTheHumanoidsPoseFromTheCylindersInItsLog) {
+  // a pose of the humanoid (every joint at a fixed fraction of its range, moving) as a log row of each
+  // cylinder's p_P, p_N, x and v: its vanes' angles come back through their joints, and the 28 linear
+  // cylinders' (mount=hinge_sites) by solving each hinge for the sites' distance x + x_mid
+  Scene s;
+  std::string error;
+  ASSERT_TRUE(s.Load("humanoid_pneumatic.xml", &error)) << error;
+  const mjModel* m = s.m;
+  for (int j = 0; j < m->njnt; ++j) {
+    const double lo = m->jnt_range[2 * j], hi = m->jnt_range[2 * j + 1], f = 0.1 + 0.8 * ((j * 7) % 11) / 10.0;
+    s.d->qpos[m->jnt_qposadr[j]] = lo + f * (hi - lo);
+    s.d->qvel[m->jnt_dofadr[j]] = 0.3 * (j % 5 - 2);
+  }
+  mj_forward(m, s.d);
+  const std::vector<double> pose(s.d->qpos, s.d->qpos + m->nq), rates(s.d->qvel, s.d->qvel + m->nv);
+  log::Log log;
+  log.time = {0.25};
+  int linear = 0;
+  for (const CylinderInfo& c : s.cylinders) {
+    linear += c.rod_site >= 0;
+    const double row[4] = {ChamberPressure(m, s.d, c, Chamber::kP) + 1e5, ChamberPressure(m, s.d, c, Chamber::kN),
+                           PistonPosition(m, s.d, c), PistonVelocity(m, s.d, c)};
+    const char* signal[4] = {"p_P", "p_N", "x", "v"};
+    for (int k = 0; k < 4; ++k) log.columns.push_back({c.name, signal[k]}), log.values.push_back({row[k]});
+  }
+  EXPECT_EQ(linear, 28);
+  mj_resetData(m, s.d);
+  ASSERT_EQ(SetStateFromLog(m, s.d, log, std::nullopt), "");
+  for (int i = 0; i < m->nq; ++i) EXPECT_NEAR(s.d->qpos[i], pose[i], 1e-12) << "qpos " << i;
+  for (int i = 0; i < m->nv; ++i) EXPECT_NEAR(s.d->qvel[i], rates[i], 1e-12) << "qvel " << i;
+  // and an x no hinge angle reaches (a linear cylinder 1 m longer) is refused, naming the cylinder and the hinge
+  size_t first_linear = 0;
+  while (s.cylinders[first_linear].rod_site < 0) ++first_linear;
+  log.values[4 * first_linear + 2][0] += 1.0;
+  error = SetStateFromLog(m, s.d, log, std::nullopt);
+  EXPECT_NE(error.find("cylinder '" + s.cylinders[first_linear].name + "'"), std::string::npos) << error;
+  EXPECT_NE(error.find("no angle of hinge"), std::string::npos) << error;
+}
+
 TEST(RenderCommand, RendersALogRowAtATime) {
   const std::string dir = ::testing::TempDir();
   log::Log log;

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <functional>
 #include <iostream>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -194,6 +195,38 @@ TEST_F(Transmission, HingeSitesGiveTheLengthLeverArmAndTorqueWorkedOutByHand) {
   EXPECT_NEAR(d->qfrc_actuator[0], 30 * lever, 1e-12);
   EXPECT_NEAR(d->actuator_force[arm.actuator("cyl.P")], 2e-4 * (3e5 - cyl.p_atm) * lever, 1e-12);
   EXPECT_NEAR(d->actuator_force[arm.actuator("cyl.N")], -2e-4 * (1.5e5 - cyl.p_atm) * lever, 1e-12);
+}
+
+TEST_F(Transmission, HingeAngleAtSolvesTheSiteDistanceForTheAngle) {
+  // L^2 = 0.02 (1 + sin q) (above): from the elbow at 0, the x of q = 0.3 gives back 0.3 and dL/dq there.
+  // The other root, pi - 0.3, is the farther turn
+  AttachedModel arm;
+  ASSERT_TRUE(arm.Load(HingeSitesArm())) << arm.error();
+  const mjModel* m = arm.m();
+  mjData* d = arm.d();
+  const CylinderInfo cyl = arm.cylinder();
+  const double q = 0.3, length = 0.1 * std::sqrt(2 * (1 + std::sin(q)));
+  mj_kinematics(m, d);
+  double lever = 0;
+  std::string error;
+  std::optional<double> angle = HingeAngleAt(m, d, cyl, length - kMid, &lever, &error);
+  ASSERT_TRUE(angle) << error;
+  EXPECT_NEAR(*angle, q, 1e-14);
+  EXPECT_NEAR(lever, 0.01 * std::cos(q) / length, 1e-14);
+  // from the elbow at 2.5 rad the nearer root is pi - 0.3
+  d->qpos[0] = 2.5;
+  mj_kinematics(m, d);
+  angle = HingeAngleAt(m, d, cyl, length - kMid, &lever, &error);
+  ASSERT_TRUE(angle) << error;
+  EXPECT_NEAR(*angle, mjPI - q, 1e-14);
+  EXPECT_NEAR(lever, -0.01 * std::cos(q) / length, 1e-14);
+  // no angle puts the sites 0.3 m apart (at most 0.2 m), nor is a cylinder on its joint solved
+  EXPECT_FALSE(HingeAngleAt(m, d, cyl, 0.3 - kMid, &lever, &error));
+  EXPECT_NE(error.find("no angle of hinge 'elbow'"), std::string::npos) << error;
+  AttachedModel vane;
+  ASSERT_TRUE(vane.Load(Arm("", Cylinder(R"(joint="elbow")", "stroke=2 area=1e-5 dead_volume=1e-6")))) << vane.error();
+  EXPECT_FALSE(HingeAngleAt(vane.m(), vane.d(), vane.cylinder(), 0.1, &lever, &error));
+  EXPECT_NE(error.find("not mounted between sites"), std::string::npos) << error;
 }
 
 // runs the valve pattern of test_util.h for `steps` steps and returns (qpos, qvel, p_P, p_N) after each

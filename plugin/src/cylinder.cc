@@ -729,6 +729,46 @@ void PistonJacobian(const mjModel* m, const mjData* d, const CylinderInfo& c, mj
   mju_copy(row, d->actuator_moment + static_cast<size_t>(c.chamber_actuator[0]) * m->nv, m->nv);
 }
 
+std::optional<double> HingeAngleAt(const mjModel* m, const mjData* d, const CylinderInfo& c, double x,
+                                   double* lever_arm, std::string* error) {
+  if (c.rod_site < 0) {
+    *error = "cylinder '" + c.name + "' is not mounted between sites (mount=hinge_sites)";
+    return std::nullopt;
+  }
+  // turning the hinge by t from its present angle moves the rod end to
+  // anchor + rho_par + cos t rho_perp + sin t (a x rho), rho = rod - anchor split along the axis a and
+  // across it; with w = cap - anchor the length obeys L^2(t) = K - 2 (A cos t + B sin t),
+  // K = |rho_par - w|^2 + |rho_perp|^2, A = w . rho_perp, B = w . (a x rho) (the project's own form)
+  const mjtNum* cap = d->site_xpos + 3 * c.cap_site;
+  const mjtNum* rod = d->site_xpos + 3 * c.rod_site;
+  const mjtNum* a = d->xaxis + 3 * c.hinge;
+  const mjtNum* anchor = d->xanchor + 3 * c.hinge;
+  mjtNum rho[3], w[3], along[3], across[3], turned[3], offset[3];
+  mju_sub3(rho, rod, anchor);
+  mju_sub3(w, cap, anchor);
+  mju_scl3(along, a, mju_dot3(a, rho));
+  mju_sub3(across, rho, along);
+  mju_cross(turned, a, rho);
+  mju_sub3(offset, along, w);
+  const double k = mju_dot3(offset, offset) + mju_dot3(across, across);
+  const double big_a = mju_dot3(w, across), big_b = mju_dot3(w, turned);
+  const double length = x + c.x_mid;
+  const double radius = std::hypot(big_a, big_b);
+  const double wanted = (k - length * length) / 2;  // = A cos t + B sin t = R cos(t - phi)
+  if (!(length > 0) || !(std::fabs(wanted) <= radius)) {
+    *error = "cylinder '" + c.name + "': no angle of hinge '" + std::string(mj_id2name(m, mjOBJ_JOINT, c.hinge)) +
+             "' puts its sites " + FormatNumber(length) + " m apart (x = " + FormatNumber(x) + " m)";
+    return std::nullopt;
+  }
+  const double phi = std::atan2(big_b, big_a), spread = std::acos(wanted / radius);
+  // the two solutions phi +- spread, each wrapped into (-pi, pi]; the smaller turn wins
+  auto wrap = [](double t) { return t - 2 * mjPI * std::round(t / (2 * mjPI)); };
+  const double t1 = wrap(phi + spread), t2 = wrap(phi - spread);
+  const double t = std::fabs(t1) <= std::fabs(t2) ? t1 : t2;
+  if (lever_arm) *lever_arm = (big_a * std::sin(t) - big_b * std::cos(t)) / length;
+  return d->qpos[m->jnt_qposadr[c.hinge]] + t;
+}
+
 int DrivenJoint(const mjModel* m, const CylinderInfo& c) {
   int id = c.chamber_actuator[0];
   if (c.rod_site >= 0 || id < 0) return -1;

@@ -117,6 +117,13 @@ double PistonVelocity(const mjModel* m, const mjData* d, const CylinderInfo& c);
 // (mj_kinematics, mj_comPos, mj_tendon, mj_transmission) to be current.
 void PistonJacobian(const mjModel* m, const mjData* d, const CylinderInfo& c, mjtNum* row);
 
+// mount=hinge_sites: the hinge angle (rad) at which the piston is at x, |rod - cap| = x + x_mid, the
+// nearest to the hinge's angle in d (wrapped into (-pi, pi] about it), and in *lever_arm dL/dq there
+// (a velocity v is then q' = v / dL/dq). Requires d's kinematics to be current for its qpos
+// (mj_kinematics). nullopt and *error for any other cylinder, or when no angle gives that length.
+std::optional<double> HingeAngleAt(const mjModel* m, const mjData* d, const CylinderInfo& c, double x,
+                                   double* lever_arm, std::string* error);
+
 // The joint whose coordinate the piston position is proportional to (x = gear q - x_mid: a slide or
 // hinge joint transmission), or -1 (a tendon, a slider-crank, or mount=hinge_sites).
 int DrivenJoint(const mjModel* m, const CylinderInfo& c);
