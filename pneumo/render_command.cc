@@ -58,7 +58,9 @@ std::string SetStateFromLog(const mjModel* m, mjData* d, const log::Log& log, st
     int x = log.FindColumn(c.name, "x"), v = log.FindColumn(c.name, "v");
     if (x < 0 && v < 0) continue;
     if (c.rod_site >= 0) {
-      if (x < 0) return "cylinder '" + c.name + "' is mounted between sites: its v needs its x (column '" + c.name + ".x')";
+      if (x < 0) {
+        return "cylinder '" + c.name + "' is mounted between sites: its v needs its x (column '" + c.name + ".x')";
+      }
       double lever_arm = 0;
       std::string error;
       std::optional<double> angle = HingeAngleAt(m, d, c, log.values[x][row], &lever_arm, &error);

@@ -152,8 +152,10 @@ std::string HingeSitesArm(const std::string& config = "") {
 // the same cylinder on a spatial tendon over the same two sites
 std::string TendonArm() {
   std::string xml = Arm(R"(<site name="cyl.rod" pos="0.1 0 0"/>)",
-                        R"(<tendon><spatial name="line"><site site="cyl.cap"/><site site="cyl.rod"/></spatial></tendon>)" +
-                            Cylinder(R"(tendon="line")", "stroke=0.1 area=2e-4 dead_volume=2e-6 x_mid=" + std::string(kMidText)));
+                        R"(<tendon><spatial name="line"><site site="cyl.cap"/><site site="cyl.rod"/></spatial>)"
+                        R"(</tendon>)" +
+                            Cylinder(R"(tendon="line")",
+                                     "stroke=0.1 area=2e-4 dead_volume=2e-6 x_mid=" + std::string(kMidText)));
   return testing::ReplaceAll(xml, R"(<site name="base")", R"(<site name="cyl.cap")");
 }
 
@@ -289,12 +291,13 @@ TEST_F(Transmission, HingeSitesRefuseWhatTheirGeometryCannotTake) {
       {testing::ReplaceAll(good, R"(<site name="cyl.rod")", R"(<site name="cyl.pin")"),
        {"cylinder 'cyl'", "key 'mount'", "site 'cyl.rod' is missing", "'forearm'"}},
       // the cap on the forearm itself: it would turn with the rod
-      {testing::ReplaceAll(testing::ReplaceAll(good, R"(<site name="cyl.cap" pos="0 -0.1 0"/>)", ""), R"(<site name="cyl.rod")",
-                           R"(<site name="cyl.cap" pos="0 -0.1 0"/><site name="cyl.rod")"),
+      {testing::ReplaceAll(testing::ReplaceAll(good, R"(<site name="cyl.cap" pos="0 -0.1 0"/>)", ""),
+                           R"(<site name="cyl.rod")", R"(<site name="cyl.cap" pos="0 -0.1 0"/><site name="cyl.rod")"),
        {"key 'mount'", "site 'cyl.cap' is on body 'forearm'", "parent of the hinge's body"}},
       {testing::ReplaceAll(good, R"(joint="elbow")", R"(joint="elbow" gear="2")"), {"key 'mount'", "gear=\"1\""}},
       {testing::ReplaceAll(good, R"(type="hinge")", R"(type="slide")"), {"key 'mount'", "hinge"}},
-      {testing::ReplaceAll(good, "mount=hinge_sites", "mount=hinge_sites coulomb_friction=5"), {"key 'coulomb_friction'", "mount=hinge_sites"}},
+      {testing::ReplaceAll(good, "mount=hinge_sites", "mount=hinge_sites coulomb_friction=5"),
+       {"key 'coulomb_friction'", "mount=hinge_sites"}},
       {testing::ReplaceAll(good, R"(<general name="cyl.P" joint="elbow" dyntype="user" gaintype="user"/>)",
                            R"(<general name="cyl.P" joint="elbow" dyntype="user" gainprm="2e-4"/>)"),
        {"actuator 'cyl.P'", "gaintype=\"user\"", "lever arm"}},

@@ -42,9 +42,10 @@ double ClampedControl(const mjModel* m, const mjData* d, int id) {
 double Act(const mjModel* m, const mjData* d, int id) { return d->act[id - (m->nu - m->na)]; }
 double& ActDot(const mjModel* m, mjData* d, int id) { return d->act_dot[id - (m->nu - m->na)]; }
 
-std::string BodyName(const mjModel* m, int body) {
-  const char* name = mj_id2name(m, mjOBJ_BODY, body);
-  return name ? name : "#" + std::to_string(body);
+// a body's or joint's name, or "#id" for an unnamed one
+std::string ObjectName(const mjModel* m, mjtObj type, int id) {
+  const char* name = mj_id2name(m, type, id);
+  return name ? name : "#" + std::to_string(id);
 }
 
 // mount=hinge_sites: the chamber actuators drive one hinge with gear 1; "<name>.cap" sits on the
@@ -62,7 +63,7 @@ std::string BindHingeSites(const mjModel* m, const std::string& name, int actuat
   }
   int body = m->jnt_bodyid[joint];
   if (m->body_jntnum[body] != 1) {
-    return "body '" + BodyName(m, body) + "' of hinge '" + mj_id2name(m, mjOBJ_JOINT, joint) +
+    return "body '" + ObjectName(m, mjOBJ_BODY, body) + "' of hinge '" + ObjectName(m, mjOBJ_JOINT, joint) +
            "' has other joints: the rod site would move with them too";
   }
   const int wanted_body[2] = {m->body_parentid[body], body};
@@ -72,10 +73,11 @@ std::string BindHingeSites(const mjModel* m, const std::string& name, int actuat
   for (int i = 0; i < 2; ++i) {
     std::string site_name = name + suffix[i];
     site[i] = mj_name2id(m, mjOBJ_SITE, site_name.c_str());
-    if (site[i] < 0) return "site '" + site_name + "' is missing (" + what[i] + " '" + BodyName(m, wanted_body[i]) + "')";
+    const std::string wanted = what[i] + std::string(" '") + ObjectName(m, mjOBJ_BODY, wanted_body[i]) + "'";
+    if (site[i] < 0) return "site '" + site_name + "' is missing (" + wanted + ")";
     if (m->site_bodyid[site[i]] != wanted_body[i]) {
-      return "site '" + site_name + "' is on body '" + BodyName(m, m->site_bodyid[site[i]]) + "'; it must be " +
-             what[i] + " '" + BodyName(m, wanted_body[i]) + "'";
+      return "site '" + site_name + "' is on body '" + ObjectName(m, mjOBJ_BODY, m->site_bodyid[site[i]]) +
+             "'; it must be " + wanted;
     }
   }
   info->cap_site = site[0], info->rod_site = site[1], info->hinge = joint;
@@ -756,7 +758,7 @@ std::optional<double> HingeAngleAt(const mjModel* m, const mjData* d, const Cyli
   const double radius = std::hypot(big_a, big_b);
   const double wanted = (k - length * length) / 2;  // = A cos t + B sin t = R cos(t - phi)
   if (!(length > 0) || !(std::fabs(wanted) <= radius)) {
-    *error = "cylinder '" + c.name + "': no angle of hinge '" + std::string(mj_id2name(m, mjOBJ_JOINT, c.hinge)) +
+    *error = "cylinder '" + c.name + "': no angle of hinge '" + ObjectName(m, mjOBJ_JOINT, c.hinge) +
              "' puts its sites " + FormatNumber(length) + " m apart (x = " + FormatNumber(x) + " m)";
     return std::nullopt;
   }
