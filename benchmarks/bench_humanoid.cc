@@ -1,16 +1,26 @@
-// The pneumatic humanoid against its motor twin (issue 15, item 7). Prints Markdown.
+// The pneumatic humanoid against its motor twin, in the same motion (issue 15, item 7). Prints Markdown.
 //
-// Stepping: models_mjcf/humanoid_pneumatic.xml (36 cylinders, 72 chambers), its identified-model
-// variant and humanoid_motors.xml, each stepped from its reset state with constant commands (the
-// valves at their centre plus 0.5 V, the motors at 0), reset every 2 s of simulated time; also
-// humanoid_pneumatic.xml not attached (its chambers stay at p_atm and push nothing, the robot hangs
-// limp as the twin with its motors at 0 does): what MuJoCo alone spends on its two actuators per
-// cylinder (its linear cylinders are mount=hinge_sites: no MuJoCo tendons), the floor under the
-// pneumatic model's cost whatever the extension does; and humanoid_pneumatic.xml with its linear
-// cylinders on spatial tendons over the same two sites instead of mount=hinge_sites, what that mount
-// saves (the same physics to round-off, tests/transmission_test). Each model runs about 1 s of wall
-// time after a 0.2 s warm-up, five runs alternating the models, the median reported. The real-time
-// factor is simulated time over wall time.
+// The motion: the wave (models_mjcf/humanoid_wave.csv, 7.5 s) under PID with the shipped gains
+// (humanoid_pid.json), as scripts/demo runs it, recorded once per pneumatic model (untimed): every
+// step's ctrl (the valve commands, held between the 100 Hz ticks), the generalized force the cylinders
+// applied (qfrc_actuator) and the pose reached. Each row then replays that motion open loop, so that
+// the timed loop is mj_step and a copy of its inputs, without the controller:
+//  * humanoid_pneumatic.xml (36 cylinders, 72 chambers) and its identified-model variant replay their
+//    own valve commands;
+//  * humanoid_pneumatic.xml not attached (MuJoCo alone: its 72 actuators, no pressure physics) gets the
+//    cylinders' forces as qfrc_applied: what MuJoCo alone spends on the model, the floor under the
+//    pneumatic cost whatever the extension does;
+//  * humanoid_pneumatic.xml with its linear cylinders on spatial tendons over the same two sites
+//    instead of mount=hinge_sites replays the valve commands: what that mount saves (the same physics
+//    to round-off, tests/transmission_test);
+//  * humanoid_motors.xml, the twin, gets the cylinders' forces as its motors' ctrl (gear 1 on the same
+//    joints; their ctrlrange lifted so that no force is clipped).
+// Every row is checked against the recorded poses in an untimed pass and prints its largest deviation:
+// 0 where the forces are the same numbers (the same motion bit for bit, the same constraints); on tendons,
+// their round-off grown over 7.5 s of open-loop replay (about 1e-4 rad). Each row runs about 1 s of wall
+// time (whole replays) after a 0.2 s warm-up, five runs alternating the rows, the median reported; the
+// ratio is to the twin replaying the same model's motion. The real-time factor is simulated time over
+// wall time.
 //
 // Rollouts: `pneumo rollout --controller pid --controller-config models_mjcf/humanoid_pid.json` on
 // the humanoid (pneumo/closed_loop.h; the shipped gains, as scripts/demo runs it: every tick also
@@ -18,6 +28,7 @@
 // threads (each on its own copy of the model).
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -31,21 +42,13 @@
 
 #include "closed_loop.h"
 #include "controller_config.h"
+#include "log_csv.h"
 #include "machine.h"
 #include "pneumatic/pneumatic.h"
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-struct Model {
-  const char* name;
-  const char* file;
-  bool attach = true;  // false: MuJoCo's own work on the model's actuators, no pressure physics
-  bool on_tendons = false;  // true: the linear cylinders on spatial tendons (OnSpatialTendons)
-  mjModel* m = nullptr;
-  mjData* d = nullptr;
-};
 
 // the MJCF text with every mount=hinge_sites cylinder on a spatial tendon over its two sites instead
 // (mount=transmission): the same physics to round-off (tests/transmission_test), with MuJoCo's tendon work
@@ -94,24 +97,128 @@ mjModel* Load(const std::string& file, bool attach, bool on_tendons = false) {
   return m;
 }
 
-void Reset(const mjModel* m, mjData* d) {
-  mj_resetData(m, d);
-  for (const auto& c : pneumatic::Cylinders(m)) {
-    for (const auto& [signal, id] : c.command_actuators) d->ctrl[id] = 5.5;
+// the wave under PID, as a pneumatic model ran it: its start and, step by step, its inputs and poses
+struct Motion {
+  int nq = 0, nv = 0, nu = 0;
+  long steps = 0;
+  std::vector<double> qpos0, qvel0, act0;  // the state before the first step
+  std::vector<double> ctrl;                // steps x nu: the ctrl each step ran with
+  std::vector<double> force;               // steps x nv: the cylinders' generalized force (qfrc_actuator)
+  std::vector<double> qpos;                // steps x nq: the pose after each step
+};
+
+Motion Record(const mjModel* m) {
+  pneumatic::ClosedLoopOptions options;
+  const std::string dir = std::string(PNEUMATIC_MODELS_DIR) + "/";
+  std::string error = pneumatic::ReadControllerConfig(dir + "humanoid_pid.json", &options);
+  pneumatic::log::ReadOptions read;
+  for (const auto& c : pneumatic::Cylinders(m)) read.cylinders.insert(c.name);
+  read.uniform_time = false;
+  pneumatic::log::ReadResult wave = pneumatic::log::ReadLog(dir + "humanoid_wave.csv", read);
+  if (error.empty() && !wave.log) error = wave.error;
+  if (!error.empty()) {
+    std::fprintf(stderr, "%s\n", error.c_str());
+    std::exit(1);
   }
+  options.reference = &*wave.log;
+  options.duration = 7.5;
+  Motion motion;
+  motion.nq = m->nq, motion.nv = m->nv, motion.nu = m->nu;
+  options.observer = [&](const mjData* d) {
+    if (motion.qpos0.empty()) {  // before the first step
+      motion.qpos0.assign(d->qpos, d->qpos + m->nq);
+      motion.qvel0.assign(d->qvel, d->qvel + m->nv);
+      motion.act0.assign(d->act, d->act + m->na);
+      return std::string();
+    }
+    motion.ctrl.insert(motion.ctrl.end(), d->ctrl, d->ctrl + m->nu);
+    motion.force.insert(motion.force.end(), d->qfrc_actuator, d->qfrc_actuator + m->nv);
+    motion.qpos.insert(motion.qpos.end(), d->qpos, d->qpos + m->nq);
+    ++motion.steps;
+    return std::string();
+  };
+  pneumatic::ClosedLoopResult result = pneumatic::RunClosedLoop(m, options);
+  if (!result.log) {
+    std::fprintf(stderr, "recording the wave: %s\n", result.error.c_str());
+    std::exit(1);
+  }
+  return motion;
 }
 
-// microseconds per mj_step over about `seconds` of wall time
-double MicrosecondsPerStep(const Model& model, double seconds) {
-  const long reset_steps = std::lround(2.0 / model.m->opt.timestep);
+// how a row takes the motion's inputs
+enum class Drive {
+  kValves,        // ctrl: the recorded valve commands
+  kAppliedForce,  // qfrc_applied: the cylinders' recorded force (ctrl as recorded, pushing nothing)
+  kMotors,        // the motors' ctrl: the cylinders' recorded force on each motor's joint
+};
+
+struct Row {
+  std::string name;
+  mjModel* m = nullptr;
+  const Motion* motion = nullptr;
+  Drive drive = Drive::kValves;
+  mjData* d = nullptr;
+  std::vector<int> motor_dof;  // kMotors: each motor's dof
+};
+
+Row MakeRow(std::string name, mjModel* m, const Motion* motion, Drive drive) {
+  Row row{std::move(name), m, motion, drive, mj_makeData(m), {}};
+  if (m->nq != motion->nq || m->nv != motion->nv) {
+    std::fprintf(stderr, "%s: not the recorded model's joints\n", row.name.c_str());
+    std::exit(1);
+  }
+  if (drive == Drive::kMotors) {
+    for (int i = 0; i < m->nu; ++i) {
+      m->actuator_ctrllimited[i] = 0;
+      row.motor_dof.push_back(m->jnt_dofadr[m->actuator_trnid[2 * i]]);
+    }
+  }
+  return row;
+}
+
+void Start(const Row& row) {
+  mj_resetData(row.m, row.d);
+  const Motion& motion = *row.motion;
+  std::copy(motion.qpos0.begin(), motion.qpos0.end(), row.d->qpos);
+  std::copy(motion.qvel0.begin(), motion.qvel0.end(), row.d->qvel);
+  if (row.drive != Drive::kMotors) std::copy(motion.act0.begin(), motion.act0.end(), row.d->act);
+}
+
+// step k of the motion
+void Step(const Row& row, long k) {
+  const Motion& motion = *row.motion;
+  const double* force = motion.force.data() + k * motion.nv;
+  if (row.drive == Drive::kMotors) {
+    for (int i = 0; i < row.m->nu; ++i) row.d->ctrl[i] = force[row.motor_dof[i]];
+  } else {
+    std::copy_n(motion.ctrl.data() + k * motion.nu, motion.nu, row.d->ctrl);
+    if (row.drive == Drive::kAppliedForce) std::copy_n(force, motion.nv, row.d->qfrc_applied);
+  }
+  mj_step(row.m, row.d);
+}
+
+// the largest |qpos - recorded qpos| over one replay
+double Deviation(const Row& row) {
+  Start(row);
+  double largest = 0;
+  for (long k = 0; k < row.motion->steps; ++k) {
+    Step(row, k);
+    for (int i = 0; i < row.m->nq; ++i) {
+      largest = std::max(largest, std::fabs(row.d->qpos[i] - row.motion->qpos[k * row.m->nq + i]));
+    }
+  }
+  return largest;
+}
+
+// microseconds per mj_step over whole replays, about `seconds` of wall time
+double MicrosecondsPerStep(const Row& row, double seconds) {
   long steps = 0;
   const auto start = Clock::now();
   double elapsed = 0;
   while (elapsed < seconds) {
-    for (int i = 0; i < 100; ++i, ++steps) {
-      if (steps % reset_steps == 0) Reset(model.m, model.d);
-      mj_step(model.m, model.d);
-    }
+    Start(row);
+    for (long k = 0; k < row.motion->steps; ++k) Step(row, k);
+    steps += row.motion->steps;
     elapsed = std::chrono::duration<double>(Clock::now() - start).count();
   }
   return 1e6 * elapsed / static_cast<double>(steps);
@@ -144,47 +251,64 @@ double RolloutsPerSecond(const mjModel* m, int runs, int threads) {
 }  // namespace
 
 int main() {
-  // the twin last: the ratios are to it
-  std::vector<Model> models = {
-      {"humanoid_pneumatic", "humanoid_pneumatic.xml"},
-      {"humanoid_pneumatic_identified", "humanoid_pneumatic_identified.xml"},
-      {"humanoid_pneumatic, not attached (MuJoCo alone: its actuators, no pressure physics)",
-       "humanoid_pneumatic.xml", false},
-      {"humanoid_pneumatic on 28 spatial tendons over the same sites (mount=transmission)", "humanoid_pneumatic.xml",
-       true, true},
-      {"humanoid_motors", "humanoid_motors.xml"}};
-  for (Model& model : models) {
-    model.m = Load(model.file, model.attach, model.on_tendons);
-    model.d = mj_makeData(model.m);
-  }
-  std::vector<std::vector<double>> us(models.size());
-  for (Model& model : models) MicrosecondsPerStep(model, 0.2);  // warm-up
+  mjModel* pneumatic = Load("humanoid_pneumatic.xml", true);
+  mjModel* identified = Load("humanoid_pneumatic_identified.xml", true);
+  std::fprintf(stderr, "recording the wave on both pneumatic models\n");
+  const Motion wave = Record(pneumatic), identified_wave = Record(identified);
+  // each motion is replayed by its pneumatic rows and by a twin, the row the ratios are to
+  std::vector<Row> rows = {
+      MakeRow("humanoid_pneumatic", pneumatic, &wave, Drive::kValves),
+      MakeRow("humanoid_pneumatic, not attached (MuJoCo alone: its actuators, no pressure physics)",
+              Load("humanoid_pneumatic.xml", false), &wave, Drive::kAppliedForce),
+      MakeRow("humanoid_pneumatic on 28 spatial tendons over the same sites (mount=transmission)",
+              Load("humanoid_pneumatic.xml", true, true), &wave, Drive::kValves),
+      MakeRow("humanoid_motors", Load("humanoid_motors.xml", false), &wave, Drive::kMotors),
+      MakeRow("humanoid_pneumatic_identified", identified, &identified_wave, Drive::kValves),
+      MakeRow("humanoid_motors, in the identified model's wave", Load("humanoid_motors.xml", false), &identified_wave,
+              Drive::kMotors)};
+  // the twin that replays each row's motion
+  auto twin = [&](const Row& row) -> const Row& {
+    for (const Row& other : rows) {
+      if (other.drive == Drive::kMotors && other.motion == row.motion) return other;
+    }
+    return row;
+  };
+  std::vector<double> deviation;
+  for (const Row& row : rows) deviation.push_back(Deviation(row));
+  std::vector<std::vector<double>> us(rows.size());
+  for (const Row& row : rows) MicrosecondsPerStep(row, 0.2);  // warm-up
   for (int run = 0; run < 5; ++run) {
-    for (size_t i = 0; i < models.size(); ++i) us[i].push_back(MicrosecondsPerStep(models[i], 1.0));
+    for (size_t i = 0; i < rows.size(); ++i) us[i].push_back(MicrosecondsPerStep(rows[i], 1.0));
     std::fprintf(stderr, "stepping: run %d of 5\n", run + 1);
   }
-  std::printf("### The pneumatic humanoid against its motor twin\n\n");
-  pneumatic::benchmarks::PrintMachine(PNEUMATIC_BUILD_TYPE);
-  std::printf("\n| model | actuators | us per step | steps/s | real-time factor | vs motors |\n|---|---:|---:|---:|---:|---:|\n");
-  std::vector<double> median(models.size());
-  for (size_t i = 0; i < models.size(); ++i) {
+  std::vector<double> median(rows.size());
+  for (size_t i = 0; i < rows.size(); ++i) {
     std::sort(us[i].begin(), us[i].end());
     median[i] = us[i][2];
   }
-  for (size_t i = 0; i < models.size(); ++i) {
-    std::printf("| %s | %d | %.2f | %.0f | %.1f | %.2f |\n", models[i].name, models[i].m->nu, median[i], 1e6 / median[i],
-                1e6 * models[i].m->opt.timestep / median[i], median[i] / median.back());
+  auto median_of = [&](const Row& row) { return median[&row - rows.data()]; };
+  std::printf("### The pneumatic humanoid against its motor twin, in the same motion\n\n");
+  pneumatic::benchmarks::PrintMachine(PNEUMATIC_BUILD_TYPE);
+  std::printf("\nThe wave under PID (7.5 s, %ld steps), replayed; largest |q - q_recorded| over the replay in the "
+              "last column.\n\n| model | actuators | us per step | steps/s | real-time factor | vs motors | "
+              "largest deviation (rad) |\n|---|---:|---:|---:|---:|---:|---:|\n",
+              wave.steps);
+  for (size_t i = 0; i < rows.size(); ++i) {
+    std::printf("| %s | %d | %.2f | %.0f | %.1f | %.2f | %.1e |\n", rows[i].name.c_str(), rows[i].m->nu, median[i],
+                1e6 / median[i], 1e6 * rows[i].m->opt.timestep / median[i], median[i] / median_of(twin(rows[i])),
+                deviation[i]);
   }
+  const double chambers = 2.0 * static_cast<double>(pneumatic::Cylinders(pneumatic).size());
   std::printf("\nPneumatic over motors: +%.0f %% (the issue's target: at most +10 %%); %.3f us per chamber step.\n",
-              100 * (median[0] / median.back() - 1), (median[0] - median.back()) / 72);
+              100 * (median[0] / median_of(twin(rows[0])) - 1), (median[0] - median_of(twin(rows[0]))) / chambers);
 
   std::printf("\n### Closed-loop rollouts of the humanoid (PID with humanoid_pid.json, 2 s each)\n\n| threads | rollouts/s |\n|---:|---:|\n");
-  const double one = RolloutsPerSecond(models[0].m, 4, 1), two = RolloutsPerSecond(models[0].m, 4, 2);
+  const double one = RolloutsPerSecond(pneumatic, 4, 1), two = RolloutsPerSecond(pneumatic, 4, 2);
   std::printf("| 1 | %.2f |\n| 2 | %.2f (%.2fx) |\n", one, two, two / one);
-  for (Model& model : models) {
-    mj_deleteData(model.d);
-    if (model.attach) pneumatic::Detach(model.m);
-    mj_deleteModel(model.m);
+  for (Row& row : rows) {  // each row has a model of its own
+    mj_deleteData(row.d);
+    pneumatic::Detach(row.m);  // (nothing to detach on the twins and on the model not attached)
+    mj_deleteModel(row.m);
   }
   return 0;
 }
