@@ -10,6 +10,7 @@
 #include <fstream>
 #include <iomanip>
 #include <limits>
+#include <map>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -388,7 +389,9 @@ TEST_F(Parameters, GetRefusesWhatItCannotAnswer) {
                              {"cylinder 'cyl'", "key 'dead_volume'", "P.dead_volume"}},
                         Case{"unknown key", "cyl", "bogus", {"cylinder 'cyl'", "key 'bogus'", "unknown key"}},
                         Case{"unknown cylinder", "nope", "P.area", {"'nope'"}},
-                        Case{"does not apply", "cyl", "spool_gain", {"key 'spool_gain'", "applies only to"}}}) {
+                        Case{"does not apply", "cyl", "spool_gain", {"key 'spool_gain'", "applies only to"}},
+                        Case{"cylinder key with a chamber's prefix", "cyl", "P.stroke",
+                             {"key 'P.stroke'", "a cylinder key: give stroke"}}}) {
     SCOPED_TRACE(c.name);
     std::string error;
     EXPECT_FALSE(GetParameter(m_, c.cylinder, c.key, &error).has_value());
@@ -403,6 +406,52 @@ TEST_F(Parameters, GetRefusesWhatItCannotAnswer) {
   EXPECT_FALSE(SetParameter(detached, "cyl", "P.area", 2e-4, &error));
   EXPECT_THAT(error, HasSubstr("not attached"));
   mj_deleteModel(detached);
+}
+
+// GetParameter reads the configuration directly; the configuration text formats every key that applies:
+// both must give the same value, bit for bit, for every key of every shipped model's cylinders, and a
+// key the text leaves out (it does not apply) must be refused
+TEST_F(Parameters, GetAgreesWithTheConfigurationTextOnEveryKey) {
+  std::vector<std::string> files(std::begin(kShippedRigs), std::end(kShippedRigs));
+  files.push_back("humanoid_pneumatic.xml");  // mount=hinge_sites, vanes
+  files.push_back("humanoid_pneumatic_identified.xml");
+  for (const std::string& file : files) {
+    SCOPED_TRACE(file);
+    mjModel* m = LoadAttached(ReadText(ShippedModel(file)));
+    ASSERT_NE(m, nullptr);
+    for (const CylinderInfo& c : Cylinders(m)) {
+      std::string error;
+      std::optional<std::string> text = ConfigurationText(m, c.name, &error);
+      ASSERT_TRUE(text) << error;
+      std::map<std::string, std::string> pairs;
+      std::istringstream words(*text);
+      for (std::string word; words >> word;) pairs[word.substr(0, word.find('='))] = word.substr(word.find('=') + 1);
+      int answered = 0;
+      for (const ParameterDoc& doc : pneumatic::Parameters()) {  // (Parameters alone is this fixture)
+        const bool chamber = doc.scope.rfind("chamber", 0) == 0;
+        for (const std::string& key : chamber ? std::vector<std::string>{"P." + doc.key, "N." + doc.key}
+                                              : std::vector<std::string>{doc.key}) {
+          SCOPED_TRACE(c.name + " " + key);
+          auto it = pairs.find(key);
+          std::optional<double> value = GetParameter(m, c.name, key, &error);
+          if (it == pairs.end()) {
+            EXPECT_FALSE(value) << "not in the text: " << *text;
+            continue;
+          }
+          if (doc.is_choice) {
+            EXPECT_EQ(GetChoice(m, c.name, key, &error).value_or("?"), it->second);
+          } else if (value) {  // (a name, such as supply=, is not a number)
+            EXPECT_TRUE(SameBits({*value}, {std::strtod(it->second.c_str(), nullptr)})) << it->second;
+          } else {
+            EXPECT_THAT(error, HasSubstr("holds a name"));
+          }
+          ++answered;
+        }
+      }
+      EXPECT_EQ(answered, static_cast<int>(pairs.size())) << "every key of the text is a documented parameter";
+    }
+    mj_deleteModel(m);
+  }
 }
 
 // ---------------------------------------------------------------------------------------------

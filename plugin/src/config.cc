@@ -755,8 +755,6 @@ std::optional<CylinderConfig> UnpackConfig(const std::string& name, const double
 std::string FormatConfig(const CylinderConfig& c) { return JoinPairs(ConfigPairs(c)); }
 
 std::optional<double> ConfigValue(const CylinderConfig& config, const std::string& key, std::string* error) {
-  std::map<std::string, std::string> pairs = ConfigPairs(config);
-  auto it = pairs.find(key);
   std::string base = key.rfind("P.", 0) == 0 || key.rfind("N.", 0) == 0 ? key.substr(2) : key;
   const Param* p = FindParam(base);
   auto fail = [&](const std::string& message) -> std::optional<double> {
@@ -766,9 +764,18 @@ std::optional<double> ConfigValue(const CylinderConfig& config, const std::strin
   if (!p) return fail("unknown key (see plugin/README.md or 'pneumo params')");
   if (p->scope == Scope::kChamber && base == key) return fail("a chamber key: give P." + key + " or N." + key);
   if (p->is_name) return fail("holds a name ('" + (config.supply.empty() ? "none" : config.supply) + "'), not a number");
-  if (it == pairs.end()) return fail(std::string("applies only to ") + AppliesText(p->applies));
-  if (p->choices) return ChoiceIndex(config, base, key[0] == 'N' ? 1 : 0);
-  return std::strtod(it->second.c_str(), nullptr);
+  if (p->scope == Scope::kCylinder && base != key) return fail("a cylinder key: give " + base);
+  // read from the configuration directly (ConfigPairs would format every key to answer one: the
+  // closed loop reads a dozen keys of every cylinder when it starts)
+  const int k = p->scope == Scope::kCylinder ? -1 : key[0] == 'N' ? 1 : 0;
+  const bool unset = !p->choices && !p->field && !config.coulomb_friction;  // coulomb_friction, when not given
+  if (!Applies(p->applies, config, k < 0 ? nullptr : &config.chamber[k]) || unset) {
+    return fail(std::string("applies only to ") + AppliesText(p->applies));
+  }
+  if (p->choices) return ChoiceIndex(config, base, std::max(k, 0));
+  if (!p->field) return *config.coulomb_friction;  // coulomb_friction, when set
+  CylinderConfig c = config;  // the accessors take a mutable config
+  return p->field(c, std::max(k, 0));
 }
 
 std::optional<CylinderConfig> WithValues(const CylinderConfig& config,
