@@ -148,9 +148,7 @@ std::vector<std::pair<mjtNum*, int>> CarriedArrays(const mjModel* m, mjData* d) 
           {d->ctrl, m->nu},
           {d->qacc_warmstart, m->nv},
           {d->qfrc_applied, m->nv},
-          {d->xfrc_applied, 6 * m->nbody},
-          {d->actuator_length, m->nu},
-          {d->actuator_velocity, m->nu}};
+          {d->xfrc_applied, 6 * m->nbody}};
 }
 
 struct Channel {
@@ -162,28 +160,39 @@ struct Channel {
   std::vector<std::pair<int, int>> command_columns;  // (actuator, output column) by the commands' order
 };
 
-// |J|^4 / (J M J') of each cylinder's piston, J = dx/dq (CylinderMeasurement::mobility) at the pose of
-// d: the inertia the piston sees when the joints move along J alone (q' = J' x' / |J|^2, kinetic
-// energy x'^2 J M J' / (2 |J|^4)); holding the other joints, rather than leaving them free (J M^-1 J'),
-// is what their own controllers do. Computed on `scratch` from the position stage alone, so that d
-// and its next step are untouched. `workspace` holds 2 nv numbers.
-void Mobilities(const mjModel* m, const mjData* d, mjData* scratch, const std::vector<Channel>& channels,
-                std::vector<mjtNum>* workspace, std::vector<double>* out) {
+// d's position and velocity stages at its present time, computed on `scratch` from d's qpos, qvel and
+// mocap alone, so that d and its next step are untouched: what the sensors read at a tick. (mj_step
+// leaves d's own position-dependent quantities, actuator lengths and velocities included, as its forward
+// pass computed them at the start of the step: one model step old, while the pressures in act are
+// current.) The position stage as mj_fwdPosition begins it; the actuator velocities as mj_fwdVelocity
+// computes them, moment times qvel.
+void PresentStages(const mjModel* m, const mjData* d, mjData* scratch) {
   mju_copy(scratch->qpos, d->qpos, m->nq);
+  mju_copy(scratch->qvel, d->qvel, m->nv);
   mju_copy(scratch->mocap_pos, d->mocap_pos, 3 * m->nmocap);
   mju_copy(scratch->mocap_quat, d->mocap_quat, 4 * m->nmocap);
   mj_kinematics(m, scratch);
   mj_comPos(m, scratch);
   mj_tendon(m, scratch);
   mj_transmission(m, scratch);
-  mj_crb(m, scratch);
+  mju_mulMatVec(scratch->actuator_velocity, scratch->actuator_moment, scratch->qvel, m->nu, m->nv);
+}
+
+// |J|^4 / (J M J') of each cylinder's piston, J = dx/dq (CylinderMeasurement::mobility) at the pose of
+// `present` (PresentStages; its inertia is computed here): the inertia the piston sees when the joints
+// move along J alone (q' = J' x' / |J|^2, kinetic energy x'^2 J M J' / (2 |J|^4)); holding the other
+// joints, rather than leaving them free (J M^-1 J'), is what their own controllers do. `workspace` holds
+// 2 nv numbers.
+void Mobilities(const mjModel* m, mjData* present, const std::vector<Channel>& channels,
+                std::vector<mjtNum>* workspace, std::vector<double>* out) {
+  mj_crb(m, present);
   workspace->resize(2 * static_cast<size_t>(m->nv));
   mjtNum* jacobian = workspace->data();
   mjtNum* inertia_times_jacobian = jacobian + m->nv;
   out->resize(channels.size());
   for (size_t i = 0; i < channels.size(); ++i) {
-    PistonJacobian(m, scratch, channels[i].info, jacobian);
-    mj_mulM(m, scratch, inertia_times_jacobian, jacobian);
+    PistonJacobian(m, present, channels[i].info, jacobian);
+    mj_mulM(m, present, inertia_times_jacobian, jacobian);
     const double squared = mju_dot(jacobian, jacobian, m->nv), inertia = mju_dot(jacobian, inertia_times_jacobian, m->nv);
     (*out)[i] = inertia > 0 ? squared * squared / inertia : 0;
   }
@@ -348,14 +357,16 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
   mobility.assign(channels.size(), 0.0);
   for (long k = 0; k < ticks; ++k) {
     const double t = d->time;
-    if (uses_mobility) Mobilities(m, d.get(), scratch.get(), channels, &mobility_workspace, &mobility);
+    mjData* present = scratch.get();
+    PresentStages(m, d.get(), present);
+    if (uses_mobility) Mobilities(m, present, channels, &mobility_workspace, &mobility);
     for (size_t i = 0; i < channels.size(); ++i) {
       Channel& ch = channels[i];
       CylinderMeasurement& y = measured[i];
       y.p_P = ChamberPressure(m, d.get(), ch.info, Chamber::kP) + options.noise_pressure * ch.noise.Gaussian();
       y.p_N = ChamberPressure(m, d.get(), ch.info, Chamber::kN) + options.noise_pressure * ch.noise.Gaussian();
       const double x_noise = options.noise_position * ch.noise.Gaussian();
-      y.x = PistonPosition(m, d.get(), ch.info) + x_noise;
+      y.x = PistonPosition(m, present, ch.info) + x_noise;
       y.reference = ch.reference.given() ? ch.reference.At(t) : ch.hold;
       y.mobility = mobility[i];
       // the summary judges the true state, not the noisy sensors
@@ -383,7 +394,7 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
         out.values[static_cast<size_t>(out_column)].push_back(commands[i][j].second);
       }
       const CylinderMeasurement& y = measured[i];
-      for (double value : {y.p_P, y.p_N, y.x, PistonVelocity(m, d.get(), ch.info), ch.info.p_supply, y.reference}) {
+      for (double value : {y.p_P, y.p_N, y.x, PistonVelocity(m, present, ch.info), ch.info.p_supply, y.reference}) {
         out.values[column++].push_back(value);
       }
     }

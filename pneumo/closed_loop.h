@@ -31,8 +31,7 @@ namespace pneumatic {
 // gives the rows the uninterrupted run would have given, bit for bit.
 struct ClosedLoopState {
   // mjData: time, qpos, qvel, act, ctrl, qacc_warmstart (the constraint solver's start),
-  // qfrc_applied, xfrc_applied, and the actuator lengths and velocities the next tick measures
-  // (mj_step leaves them as its forward pass computed them, at the start of the step)
+  // qfrc_applied, xfrc_applied (a tick measures x and v from qpos and qvel at its own time)
   std::vector<double> mujoco;
   std::vector<double> controller;  // Controller::State()
   std::vector<double> hold;        // each cylinder's target when it has no reference

@@ -155,34 +155,72 @@ RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutO
   }
   out.values.assign(out.columns.size(), {});
 
-  // the measured motion of joint-driven pistons, written into qpos and qvel. With `step` >= 0 the
-  // piston is placed on the cubic Hermite curve through the row's and the next row's x and v, at
-  // model step `step` of the row, with the velocity that takes it to the curve's next point
+  // the measured motion of the pistons, written into qpos and qvel. With `step` >= 0 the piston is
+  // placed on the cubic Hermite curve through the row's and the next row's x and v, at model step
+  // `step` of the row, with the velocity that takes it to the curve's next point. A joint-driven piston
+  // sets its joint (q = (x + x_mid) / gear); a mount=hinge_sites piston its hinge, at the angle where
+  // the sites are x + x_mid apart (HingeAngleAt, nearest the present angle), all solved on the present
+  // pose before any is set
+  bool hinge_sites = false;
+  for (const CylinderInfo& c : cylinders) hinge_sites |= c.rod_site >= 0;
   auto set_motion = [&](mjData* data, size_t row, long step) -> std::string {
+    if (hinge_sites) mj_kinematics(m, data);
+    std::vector<std::pair<int, double>> hinge_angles, hinge_rates;  // (qpos or dof address, value)
     for (const CylinderInfo& c : cylinders) {
       int x = commands->FindColumn(c.name, "x"), v = commands->FindColumn(c.name, "v");
       if (x < 0 && v < 0) continue;
       int joint = DrivenJoint(m, c);
-      if (joint < 0) return "cylinder '" + c.name + "' drives a tendon or slider-crank, or is mounted between sites: its x and v cannot be set from the log";
-      double gear = m->actuator_gear[6 * c.chamber_actuator[0]];
+      if (joint < 0 && c.rod_site < 0) {
+        return "cylinder '" + c.name + "' drives a tendon or slider-crank: its x and v cannot be set from the log";
+      }
+      if (c.rod_site >= 0 && x < 0) {
+        return "cylinder '" + c.name + "' is mounted between sites: its v needs its x (column '" + c.name + ".x')";
+      }
       double position = x >= 0 ? commands->values[x][row] : 0;
       double velocity = v >= 0 ? commands->values[v][row] : 0;
-      if (step >= 0 && x >= 0 && v >= 0 && row + 1 < commands->rows()) {
+      double next = 0;  // with `step` >= 0: the curve's point at the next model step
+      const bool on_curve = step >= 0 && x >= 0 && v >= 0 && row + 1 < commands->rows();
+      if (on_curve) {
         double x0 = position, v0 = velocity, x1 = commands->values[x][row + 1], v1 = commands->values[v][row + 1];
         double s0 = static_cast<double>(step) / static_cast<double>(steps);
         double s1 = static_cast<double>(step + 1) / static_cast<double>(steps);
         position = HermitePosition(x0, v0, x1, v1, period, s0);
-        velocity = (HermitePosition(x0, v0, x1, v1, period, s1) - position) / timestep;
+        next = HermitePosition(x0, v0, x1, v1, period, s1);
+        velocity = (next - position) / timestep;
       }
-      if (x >= 0) data->qpos[m->jnt_qposadr[joint]] = (position + c.x_mid) / gear;
-      if (v >= 0) data->qvel[m->jnt_dofadr[joint]] = velocity / gear;
+      if (c.rod_site < 0) {
+        double gear = m->actuator_gear[6 * c.chamber_actuator[0]];
+        if (x >= 0) data->qpos[m->jnt_qposadr[joint]] = (position + c.x_mid) / gear;
+        if (v >= 0) data->qvel[m->jnt_dofadr[joint]] = velocity / gear;
+        continue;
+      }
+      double lever_arm = 0;
+      std::string error;
+      const double time = commands->time[row] + (step >= 0 ? static_cast<double>(step) * timestep : 0.0);
+      std::optional<double> angle = HingeAngleAt(m, data, c, position, &lever_arm, &error);
+      if (!angle) return error + " (t = " + std::to_string(time) + " s)";
+      hinge_angles.push_back({m->jnt_qposadr[c.hinge], *angle});
+      if (v < 0) continue;
+      if (on_curve) {  // the hinge rate that turns it to the curve's next point in one step
+        std::optional<double> next_angle = HingeAngleAt(m, data, c, next, &lever_arm, &error);
+        if (!next_angle) return error + " (t = " + std::to_string(time + timestep) + " s)";
+        hinge_rates.push_back({m->jnt_dofadr[c.hinge], (*next_angle - *angle) / timestep});
+      } else if (lever_arm != 0) {
+        hinge_rates.push_back({m->jnt_dofadr[c.hinge], velocity / lever_arm});
+      } else {
+        return "cylinder '" + c.name + "': at x = " + std::to_string(position) +
+               " m its hinge is at a dead point (lever arm 0): its v cannot be set (t = " + std::to_string(time) + " s)";
+      }
     }
+    for (const auto& [address, angle] : hinge_angles) data->qpos[address] = angle;
+    for (const auto& [address, rate] : hinge_rates) data->qvel[address] = rate;
     return "";
   };
   // with the motion prescribed, each piston moves exactly to the curve's next point
-  auto step_along_motion = [&](mjData* data, size_t row, long k) {
-    set_motion(data, row, k);
+  auto step_along_motion = [&](mjData* data, size_t row, long k) -> std::string {
+    if (std::string e = set_motion(data, row, k); !e.empty()) return e;
     StepAlongPrescribedMotion(m, data);
+    return "";
   };
   if (options.follow_motion) {
     if (!commands) return fail("following the measured motion needs a log");
@@ -207,7 +245,9 @@ RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutO
 
   // replay: set the row's commands (and motion), sample, then hold them for one period
   for (size_t row = 0; row < rows; ++row) {
-    if (options.follow_motion) set_motion(d.get(), row, -1);
+    if (options.follow_motion) {
+      if (std::string e = set_motion(d.get(), row, -1); !e.empty()) return fail(e);
+    }
     for (size_t i = 0; i < slots.size(); ++i) {
       const CommandSlot& s = slots[i];
       double u = s.source >= 0 ? commands->values[s.source][row] : s.constant;
@@ -226,7 +266,7 @@ RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutO
     out.time.push_back(commands ? commands->time[row] : t0 + static_cast<double>(row) * period);
     for (long k = 0; k < steps; ++k) {
       if (options.follow_motion) {
-        step_along_motion(d.get(), row, k);
+        if (std::string e = step_along_motion(d.get(), row, k); !e.empty()) return fail(e);
       } else {
         mj_step(m, d.get());
       }

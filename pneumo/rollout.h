@@ -25,8 +25,9 @@ struct RolloutOptions {
   std::map<std::string, double> constant_commands;
   // sample period of the output without a command log (s); 0: 1 ms rounded to whole steps
   double period = 0;
-  // move each joint-driven piston along the log's measured x (straight between rows) instead
-  // of simulating the mechanics, so only the pressures are simulated: paper 000's multi-step
+  // move each piston along the log's measured x and v (a cubic Hermite curve between rows: its
+  // joint, or with mount=hinge_sites its hinge at the angle that gives that x) instead of
+  // simulating the mechanics, so only the pressures are simulated: paper 000's multi-step
   // pressure prediction (Section V.D), which separates the pressure model from the mechanics
   // (Section II.5)
   bool follow_motion = false;
@@ -39,7 +40,7 @@ struct RolloutResult {
 
 // Replays `commands` (may be null) through m, which must be attached.
 // The state starts from the log's first row: chamber pressures p_P, p_N and
-// the position x and velocity v of joint-driven cylinders; what the log does
+// the position x and velocity v of joint-driven and mount=hinge_sites cylinders; what the log does
 // not give starts from the model's reset state (atmospheric chambers, qpos0).
 // Each row's commands are held for one row period (zero-order hold), which
 // must be a whole number of model timesteps. The result has the command

@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <string>
 
 #include <gmock/gmock.h>
@@ -37,6 +38,59 @@ log::Log StepReference(double target) {
   ref.time = {0, 0.5, 0.5001, 10};
   ref.values = {{0, 0, target, target}};
   return ref;
+}
+
+// shared/spec/log_format.md: "A measured column holds the value sampled at this row's time". Every row's
+// x and v must be the piston's at the row's time, as a full forward pass of the state at that time gives
+// them (mj_step leaves actuator lengths and site positions as they were at the start of its step, one
+// model step old): on a rig (a slide joint) and on the humanoid (hinges, and cylinders pinned between
+// sites with mount=hinge_sites)
+TEST(ClosedLoop, EveryRowHoldsThePistonsPositionAndVelocityAtItsTime) {
+  for (const char* file : {"rig_proportional.xml", "humanoid_pneumatic.xml"}) {
+    SCOPED_TRACE(file);
+    AttachedModel model;
+    ASSERT_TRUE(model.Load(ShippedModel(file), true)) << model.error();
+    const mjModel* m = model.m();
+    const std::vector<CylinderInfo> cylinders = Cylinders(m);
+    ClosedLoopOptions options;
+    options.duration = 0.2;
+    log::Log reference = StepReference(0.01);  // the rig's cylinder "cyl" steps at 0.05 s; the humanoid holds its pose
+    reference.time = {0, 0.05, 0.0501, 10};
+    if (cylinders.size() == 1) options.reference = &reference;
+    // at every tick's time (after each tick's last step), x and v from a forward pass of a copy
+    const long steps_per_tick = std::lround(1 / (options.control_rate * m->opt.timestep));
+    std::unique_ptr<mjData, void (*)(mjData*)> copy(mj_makeData(m), mj_deleteData);
+    std::vector<std::vector<double>> x_at_tick, v_at_tick;  // by tick, by cylinder
+    long steps = -1;                                         // the observer first sees the state before any step
+    options.observer = [&](const mjData* d) {
+      if (++steps % steps_per_tick != 0) return std::string();
+      mj_copyData(copy.get(), m, d);
+      mj_forward(m, copy.get());
+      x_at_tick.emplace_back(), v_at_tick.emplace_back();
+      for (const CylinderInfo& c : cylinders) {
+        x_at_tick.back().push_back(PistonPosition(m, copy.get(), c));
+        v_at_tick.back().push_back(PistonVelocity(m, copy.get(), c));
+      }
+      return std::string();
+    };
+    ClosedLoopResult result = RunClosedLoop(m, options);
+    ASSERT_TRUE(result.log) << result.error;
+    const log::Log& log = *result.log;
+    ASSERT_EQ(log.rows(), 20u);
+    ASSERT_GE(x_at_tick.size(), log.rows());
+    double moved = 0;
+    for (size_t r = 0; r < log.rows(); ++r) {
+      for (size_t i = 0; i < cylinders.size(); ++i) {
+        SCOPED_TRACE(cylinders[i].name + " at t = " + std::to_string(log.time[r]));
+        const double x = log.values[log.FindColumn(cylinders[i].name, "x")][r];
+        const double v = log.values[log.FindColumn(cylinders[i].name, "v")][r];
+        ASSERT_NEAR(x, x_at_tick[r][i], 1e-12);
+        ASSERT_NEAR(v, v_at_tick[r][i], 1e-12);
+        moved = std::max(moved, std::fabs(x - x_at_tick[0][i]));
+      }
+    }
+    EXPECT_GT(moved, 1e-4) << "m: the pistons move, so that a row one step late would show";
+  }
 }
 
 // The proportional rigs follow a step of 10 mm (a fifth of the half stroke) under the default PID:
