@@ -40,15 +40,15 @@
 // pass, at the measured pressure p (eq. 1c), the net mass flow that would close a fraction
 // f = pressure_step of the error in one control period T if it were held:
 //   mdot* = f (p* - p) V / (T n r T_gas)   (eq. 2 with the volume held),
-// V the chamber's volume at the measured x. The net flow rises with the command, so bisection finds
-// it; a flow beyond the valve's reach takes the end of the command range. As the pressure nears its
+// V the chamber's volume at the measured x. The net flow rises with the command, so a bracketed root
+// finder (Brent's method, within 1e-11 V) finds it; a flow beyond the valve's reach takes the end of the command range. As the pressure nears its
 // target the held flow shrinks (subsonic), so a step falls short of its aim rather than overshooting.
 // A chamber of paper 000's identified model gets the command whose predicted pressure one period on
-// (eq. 7 with s and r of eq. 10, the volume sensor held) is p + f (p* - p), found by bisection too.
+// (eq. 7 with s and r of eq. 10, the volume sensor held) is p + f (p* - p), found the same way.
 // f = 0.25 gives the pressure loop a time constant of -T / ln(1 - f) = 3.5 periods. A faster loop
 // corrects the pressure a light vane's motion changes a period late, and the vane rings on its
-// pneumatic spring: on the humanoid's wave f = 0.15 to 0.4 keep the waving vane within 0.064 to
-// 0.078 rad, f = 0.5 to 1 let it ring (0.107 to 0.139 rad; README).
+// pneumatic spring: on the humanoid's wave f = 0.15 to 0.4 keep the waving vane within 0.063 to
+// 0.069 rad, f = 0.5 to 1 let it ring (0.088 to 0.094 rad; README).
 #ifndef PNEUMATIC_CONTROLLERS_POSITION_PID_H_
 #define PNEUMATIC_CONTROLLERS_POSITION_PID_H_
 
