@@ -16,6 +16,7 @@
 #include "pneumatic/pneumatic.h"
 #include "rollout.h"
 #include "model_loading.h"
+#include "prescribed_motion.h"
 
 extern char** environ;
 
@@ -47,7 +48,7 @@ std::string SetStateFromLog(const mjModel* m, mjData* d, const log::Log& log, st
   // hinges of cylinders mounted between sites: solved from x on d's present pose (its kinematics), all
   // before any is set
   mj_kinematics(m, d);
-  std::vector<std::pair<int, double>> hinge_angles, hinge_rates;  // (qpos or dof address, value)
+  JointState state;
   for (const CylinderInfo& c : cylinders) {
     if (int col = log.FindColumn(c.name, "p_P"); col >= 0 && c.chamber_actuator[0] >= 0) {
       SetChamberPressure(m, d, c, Chamber::kP, log.values[col][row]);
@@ -56,33 +57,12 @@ std::string SetStateFromLog(const mjModel* m, mjData* d, const log::Log& log, st
       SetChamberPressure(m, d, c, Chamber::kN, log.values[col][row]);
     }
     int x = log.FindColumn(c.name, "x"), v = log.FindColumn(c.name, "v");
-    if (x < 0 && v < 0) continue;
-    if (c.rod_site >= 0) {
-      if (x < 0) {
-        return "cylinder '" + c.name + "' is mounted between sites: its v needs its x (column '" + c.name + ".x')";
-      }
-      double lever_arm = 0;
-      std::string error;
-      std::optional<double> angle = HingeAngleAt(m, d, c, log.values[x][row], &lever_arm, &error);
-      if (!angle) return error;
-      hinge_angles.push_back({m->jnt_qposadr[c.hinge], *angle});
-      if (v >= 0 && lever_arm == 0) {
-        return "cylinder '" + c.name + "': at x = " + std::to_string(log.values[x][row]) +
-               " m its hinge is at a dead point (lever arm 0): its v cannot be set";
-      }
-      if (v >= 0) hinge_rates.push_back({m->jnt_dofadr[c.hinge], log.values[v][row] / lever_arm});
-      continue;
-    }
-    int joint = DrivenJoint(m, c);
-    if (joint < 0) {
-      return "cylinder '" + c.name + "' drives a tendon or slider-crank: its x and v cannot be set from the log";
-    }
-    double gear = m->actuator_gear[6 * (c.chamber_actuator[0] >= 0 ? c.chamber_actuator[0] : c.chamber_actuator[1])];
-    if (x >= 0) d->qpos[m->jnt_qposadr[joint]] = (log.values[x][row] + c.x_mid) / gear;
-    if (v >= 0) d->qvel[m->jnt_dofadr[joint]] = log.values[v][row] / gear;
+    std::optional<double> position, velocity;
+    if (x >= 0) position = log.values[x][row];
+    if (v >= 0) velocity = log.values[v][row];
+    if (std::string e = PistonJointState(m, d, c, position, velocity, std::nullopt, 0, &state); !e.empty()) return e;
   }
-  for (const auto& [address, angle] : hinge_angles) d->qpos[address] = angle;
-  for (const auto& [address, rate] : hinge_rates) d->qvel[address] = rate;
+  state.WriteTo(d);
   d->time = log.time[row];
   return "";
 }

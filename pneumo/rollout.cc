@@ -2,6 +2,8 @@
 
 #include <cmath>
 #include <memory>
+#include <optional>
+#include <string>
 #include <vector>
 
 #include "pneumatic/pneumatic.h"
@@ -157,63 +159,33 @@ RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutO
 
   // the measured motion of the pistons, written into qpos and qvel. With `step` >= 0 the piston is
   // placed on the cubic Hermite curve through the row's and the next row's x and v, at model step
-  // `step` of the row, with the velocity that takes it to the curve's next point. A joint-driven piston
-  // sets its joint (q = (x + x_mid) / gear); a mount=hinge_sites piston its hinge, at the angle where
-  // the sites are x + x_mid apart (HingeAngleAt, nearest the present angle), all solved on the present
-  // pose before any is set
+  // `step` of the row, with the velocity that takes it to the curve's next point: through its joint, or
+  // a mount=hinge_sites piston through its hinge (PistonJointState), all solved on the present pose
+  // before any is set
   bool hinge_sites = false;
   for (const CylinderInfo& c : cylinders) hinge_sites |= c.rod_site >= 0;
   auto set_motion = [&](mjData* data, size_t row, long step) -> std::string {
     if (hinge_sites) mj_kinematics(m, data);
-    std::vector<std::pair<int, double>> hinge_angles, hinge_rates;  // (qpos or dof address, value)
+    JointState state;
     for (const CylinderInfo& c : cylinders) {
       int x = commands->FindColumn(c.name, "x"), v = commands->FindColumn(c.name, "v");
-      if (x < 0 && v < 0) continue;
-      int joint = DrivenJoint(m, c);
-      if (joint < 0 && c.rod_site < 0) {
-        return "cylinder '" + c.name + "' drives a tendon or slider-crank: its x and v cannot be set from the log";
-      }
-      if (c.rod_site >= 0 && x < 0) {
-        return "cylinder '" + c.name + "' is mounted between sites: its v needs its x (column '" + c.name + ".x')";
-      }
-      double position = x >= 0 ? commands->values[x][row] : 0;
-      double velocity = v >= 0 ? commands->values[v][row] : 0;
-      double next = 0;  // with `step` >= 0: the curve's point at the next model step
-      const bool on_curve = step >= 0 && x >= 0 && v >= 0 && row + 1 < commands->rows();
-      if (on_curve) {
-        double x0 = position, v0 = velocity, x1 = commands->values[x][row + 1], v1 = commands->values[v][row + 1];
+      std::optional<double> position, velocity, next;  // next: the curve's point at the next model step
+      if (x >= 0) position = commands->values[x][row];
+      if (v >= 0) velocity = commands->values[v][row];
+      if (step >= 0 && x >= 0 && v >= 0 && row + 1 < commands->rows()) {
+        double x0 = *position, v0 = *velocity, x1 = commands->values[x][row + 1], v1 = commands->values[v][row + 1];
         double s0 = static_cast<double>(step) / static_cast<double>(steps);
         double s1 = static_cast<double>(step + 1) / static_cast<double>(steps);
         position = HermitePosition(x0, v0, x1, v1, period, s0);
         next = HermitePosition(x0, v0, x1, v1, period, s1);
-        velocity = (next - position) / timestep;
+        velocity = (*next - *position) / timestep;
       }
-      if (c.rod_site < 0) {
-        double gear = m->actuator_gear[6 * c.chamber_actuator[0]];
-        if (x >= 0) data->qpos[m->jnt_qposadr[joint]] = (position + c.x_mid) / gear;
-        if (v >= 0) data->qvel[m->jnt_dofadr[joint]] = velocity / gear;
-        continue;
-      }
-      double lever_arm = 0;
-      std::string error;
-      const double time = commands->time[row] + (step >= 0 ? static_cast<double>(step) * timestep : 0.0);
-      std::optional<double> angle = HingeAngleAt(m, data, c, position, &lever_arm, &error);
-      if (!angle) return error + " (t = " + std::to_string(time) + " s)";
-      hinge_angles.push_back({m->jnt_qposadr[c.hinge], *angle});
-      if (v < 0) continue;
-      if (on_curve) {  // the hinge rate that turns it to the curve's next point in one step
-        std::optional<double> next_angle = HingeAngleAt(m, data, c, next, &lever_arm, &error);
-        if (!next_angle) return error + " (t = " + std::to_string(time + timestep) + " s)";
-        hinge_rates.push_back({m->jnt_dofadr[c.hinge], (*next_angle - *angle) / timestep});
-      } else if (lever_arm != 0) {
-        hinge_rates.push_back({m->jnt_dofadr[c.hinge], velocity / lever_arm});
-      } else {
-        return "cylinder '" + c.name + "': at x = " + std::to_string(position) +
-               " m its hinge is at a dead point (lever arm 0): its v cannot be set (t = " + std::to_string(time) + " s)";
+      if (std::string e = PistonJointState(m, data, c, position, velocity, next, timestep, &state); !e.empty()) {
+        const double time = commands->time[row] + (step >= 0 ? static_cast<double>(step) * timestep : 0.0);
+        return e + " (t = " + std::to_string(time) + " s)";
       }
     }
-    for (const auto& [address, angle] : hinge_angles) data->qpos[address] = angle;
-    for (const auto& [address, rate] : hinge_rates) data->qvel[address] = rate;
+    state.WriteTo(data);
     return "";
   };
   // with the motion prescribed, each piston moves exactly to the curve's next point
