@@ -44,6 +44,7 @@
 #include "controller_config.h"
 #include "log_csv.h"
 #include "machine.h"
+#include "model_loading.h"
 #include "pneumatic/pneumatic.h"
 
 namespace {
@@ -80,12 +81,9 @@ mjModel* Load(const std::string& file, bool attach, bool on_tendons = false) {
     std::stringstream text;
     text << in.rdbuf();
     const std::string xml = OnSpatialTendons(text.str());
-    auto vfs = std::make_unique<mjVFS>();  // 2 MB of file names: not on the stack
-    mj_defaultVFS(vfs.get());
-    mj_makeEmptyFileVFS(vfs.get(), "model.xml", static_cast<int>(xml.size()));
-    std::memcpy(vfs->filedata[0], xml.data(), xml.size());
-    m = xml.empty() ? nullptr : mj_loadXML("model.xml", vfs.get(), error, sizeof(error));
-    mj_deleteVFS(vfs.get());
+    std::string load_error = "a mount=hinge_sites cylinder has no chamber actuator on a joint to move onto a tendon";
+    m = xml.empty() ? nullptr : pneumatic::LoadModelFromText(xml, path, &load_error).release();
+    if (!m) std::snprintf(error, sizeof(error), "%s", load_error.c_str());
   } else {
     m = mj_loadXML(path.c_str(), nullptr, error, sizeof(error));
   }

@@ -46,6 +46,7 @@
 #include <mujoco/mujoco.h>
 
 #include "machine.h"
+#include "model_loading.h"
 #include "pneumatic/pneumatic.h"
 #include "reference_log.h"
 #include "rig_reference.h"
@@ -163,19 +164,10 @@ std::unique_ptr<RigModel> RigModel::Load(Rig rig, Step step, std::string* error)
     xml.insert(data + std::strlen("data=\""), key);
   }
 
-  // compile through a virtual file system (mjVFS is large: heap)
-  auto vfs = std::make_unique<mjVFS>();
-  mj_defaultVFS(vfs.get());
-  if (mj_makeEmptyFileVFS(vfs.get(), file.c_str(), static_cast<int>(xml.size())) != 0) {
-    *error = "mj_makeEmptyFileVFS failed for " + file;
-    return nullptr;
-  }
-  std::memcpy(vfs->filedata[vfs->nfile - 1], xml.data(), xml.size());
-  char buffer[1000] = "";
-  mjModel* m = mj_loadXML(file.c_str(), vfs.get(), buffer, sizeof(buffer));
-  mj_deleteVFS(vfs.get());
+  std::string load_error;
+  mjModel* m = pneumatic::LoadModelFromText(xml, file, &load_error).release();
   if (!m) {
-    *error = file + ": " + buffer;
+    *error = file + ": " + load_error;
     return nullptr;
   }
   return std::unique_ptr<RigModel>(new RigModel(m));

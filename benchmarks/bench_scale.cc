@@ -35,9 +35,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <fstream>
-#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
@@ -45,6 +43,7 @@
 #include <mujoco/mujoco.h>
 
 #include "machine.h"
+#include "model_loading.h"
 #include "pneumatic/pneumatic.h"
 
 namespace {
@@ -147,21 +146,9 @@ std::string ModelXml(int cylinders, Layout layout) {
   return xml + "</mujoco>\n";
 }
 
-// compiles MJCF text through a virtual file system; null and *error on failure
+// compiles MJCF text; null and *error on failure
 mjModel* LoadXml(const std::string& xml, std::string* error) {
-  const char* file = "scale.xml";
-  auto vfs = std::make_unique<mjVFS>();   // large: heap
-  mj_defaultVFS(vfs.get());
-  if (mj_makeEmptyFileVFS(vfs.get(), file, static_cast<int>(xml.size())) != 0) {
-    *error = "mj_makeEmptyFileVFS failed";
-    return nullptr;
-  }
-  std::memcpy(vfs->filedata[vfs->nfile - 1], xml.data(), xml.size());
-  char buffer[1000] = "";
-  mjModel* m = mj_loadXML(file, vfs.get(), buffer, sizeof(buffer));
-  mj_deleteVFS(vfs.get());
-  if (!m) *error = buffer;
-  return m;
+  return pneumatic::LoadModelFromText(xml, "scale.xml", error).release();
 }
 
 //---------------------------------- commands -------------------------------------------------------

@@ -6,7 +6,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -15,6 +14,7 @@
 
 #include "closed_loop.h"
 #include "log_csv.h"
+#include "model_loading.h"
 #include "pneumatic/pneumatic.h"
 
 namespace pneumatic {
@@ -98,15 +98,10 @@ std::string Laib2021PwmRig(const std::string& xml, double frequency, std::string
 }
 
 mjModel* Laib2021LoadModel(const std::string& xml, std::string* error) {
-  auto vfs = std::make_unique<mjVFS>();
-  mj_defaultVFS(vfs.get());
-  mj_makeEmptyFileVFS(vfs.get(), "rig_a_pwm.xml", static_cast<int>(xml.size()));
-  std::memcpy(vfs->filedata[0], xml.data(), xml.size());
-  char buffer[1000] = "";
-  mjModel* m = mj_loadXML("rig_a_pwm.xml", vfs.get(), buffer, sizeof(buffer));
-  mj_deleteVFS(vfs.get());
+  std::string load_error;
+  mjModel* m = LoadModelFromText(xml, "rig_a_pwm.xml", &load_error).release();
   if (!m) {
-    if (error) *error = buffer;
+    if (error) *error = load_error;
     return nullptr;
   }
   std::string why;

@@ -6,6 +6,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "model_loading.h"
+
 namespace pneumatic::diagnosis {
 namespace {
 
@@ -150,18 +152,9 @@ ModelPtr LoadEditedModel(const std::string& path, const std::vector<ModelEdit>& 
   }
   // a virtual file of the same name: MuJoCo looks it up first, and resolves includes and assets
   // relative to the original's directory
-  auto vfs = std::make_unique<mjVFS>();
-  mj_defaultVFS(vfs.get());
   const std::string virtual_name = path.substr(0, path.rfind('.')) + ".diagnosis.xml";
-  if (mj_makeEmptyFileVFS(vfs.get(), virtual_name.c_str(), static_cast<int>(xml.size())) != 0) {
-    *error = path + ": cannot make the edited model's virtual file";
-    return ModelPtr(nullptr, mj_deleteModel);
-  }
-  const int id = mj_findFileVFS(vfs.get(), virtual_name.c_str());
-  std::copy(xml.begin(), xml.end(), static_cast<char*>(vfs->filedata[id]));
-  char load_error[1000] = "";
-  ModelPtr m(mj_loadXML(virtual_name.c_str(), vfs.get(), load_error, sizeof(load_error)), mj_deleteModel);
-  mj_deleteVFS(vfs.get());
+  std::string load_error;
+  ModelPtr m = LoadModelFromText(xml, virtual_name, &load_error);
   if (!m) {
     *error = path + " with the effect's edits: " + load_error;
     return m;
