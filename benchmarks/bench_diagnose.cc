@@ -5,13 +5,16 @@
 // on (or two, or none), under a position PID at 500 Hz following a multi-sine reference, with
 // sensor noise; the held-out log has another reference and seed. Each pair is diagnosed with the
 // nominal rig, which lacks the effect. Where the project has more than one form of an effect, the
-// truth uses a form the candidate library does not (truth -> candidate):
+// truth uses a form the candidate library does not (truth -> candidate; one supply truth is the
+// candidate's own form, and another supply truth then is not):
 //   friction       LuGre (dynamic stick-slip, static above Coulomb)  -> Coulomb (joint frictionloss)
 //   valve_delay    on/off armature delays that lose short pulses     -> (same keys: the armature model)
 //                  proportional valves' dead time (Pade)             -> a slower first-order spool
 //   leakage        laminar leaks                                     -> orifice leaks
 //   heat_transfer  gas energy equation, per-chamber wall conductance -> one conductance for both chambers
-//   supply_drop    a shared reservoir behind a restrictive line      -> a lower constant supply pressure
+//   supply_drop    a shared reservoir behind a restrictive line      -> a lower constant supply pressure, or
+//                  (the candidate's own form), or a small manifold      a tank behind a restrictive line
+//                  behind a hose of another law
 //   payload        a heavier moving body                              -> added mass
 //   line_dynamics  tube volume and restriction; for the proportional   -> tube volume and restriction
 //                  valves also with a 3 ms transport delay (line_delay)     (no delay)
@@ -130,6 +133,8 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
   t.push_back({"none", {}, {}});
   if (valve == "onoff") {
     t.push_back({"valve delays 4 ms open, 2 ms close", {"valve_delay"}, {{"cyl", {}, {}, {"u1", "u2", "u3", "u4"}, {{"delay_open", "0.004"}, {"delay_close", "0.002"}}}}});
+    // the switching times of paper 002's solenoid valves (its experimental setup): 1.3 ms opening, 0.2 ms closing
+    t.push_back({"valve delays 1.3 ms open, 0.2 ms close (paper 002)", {"valve_delay"}, {{"cyl", {}, {}, {"u1", "u2", "u3", "u4"}, {{"delay_open", "0.0013"}, {"delay_close", "0.0002"}}}}});
   } else if (valve == "proportional_5_3" && HasKey("spool_dead_time")) {
     t.push_back({"spool dead time 8 ms (Pade)", {"valve_delay"}, {{"cyl", {"d1", "d2"}, {}, {}, {{"spool_dead_time", "0.008"}}}}});
   } else if (valve == "proportional_5_3") {
@@ -145,9 +150,13 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
     t.push_back({"deadband 0.3 V", {"valve_deadband"}, {{"cyl", {}, {}, {}, {{"deadband_voltage", "0.3"}}}}});
   }
   if (HasKey("friction_model")) {
-    const double fc = 0.03 * rig.max_force;
-    t.push_back({"LuGre friction, Coulomb " + num(fc) + " N, static " + num(2 * fc) + " N", {"friction"},
-                 {{"cyl", {"z"}, {"friction"}, {}, {{"friction_model", "lugre"}, {"coulomb_friction", num(fc)}, {"static_friction", num(2 * fc)}, {"stribeck_velocity", "0.01"}}}}});
+    auto lugre = [&](double coulomb, double stat, const std::string& source) {
+      t.push_back({"LuGre friction, Coulomb " + num(coulomb) + " N, static " + num(stat) + " N" + source, {"friction"},
+                   {{"cyl", {"z"}, {"friction"}, {}, {{"friction_model", "lugre"}, {"coulomb_friction", num(coulomb)}, {"static_friction", num(stat)}, {"stribeck_velocity", "0.01"}}}}});
+    };
+    lugre(0.03 * rig.max_force, 0.06 * rig.max_force, "");
+    // the seal friction measured on paper 001's cylinder (below its eq. 1): 20 N Coulomb, 40 N static
+    if (valve == "proportional_5_3") lugre(20, 40, " (paper 001)");
   }
   {
     // laminar: about 2 % of a valve's flow at a 3 bar difference across the piston
@@ -179,6 +188,12 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
     dg::ModelEdit supply{"cyl", {}, {}, {}, {}, "tank",
                          {{"volume", num(10 * rig.mid_volume)}, {"line_conductance", num(0.5 * rig.valve_conductance)}}};
     t.push_back({"supply tank of 10 chamber volumes behind a restrictive line", {"supply_drop"}, {supply}});
+    // the candidate's form, so also a supply of another form: a small manifold (5 chamber volumes,
+    // just above the stability bound of the reservoir step) behind a hose of the valve's conductance
+    // whose law is nearly linear in the pressure drop (critical ratio 0.9 instead of 0.433)
+    dg::ModelEdit hose{"cyl", {}, {}, {}, {}, "manifold",
+                       {{"volume", num(5 * rig.mid_volume)}, {"line_conductance", num(rig.valve_conductance)}, {"line_critical_ratio", "0.9"}}};
+    t.push_back({"supply manifold of 5 chamber volumes behind a hose (b = 0.9)", {"supply_drop"}, {hose}});
   }
   t.push_back({"payload: mass x 5", {"payload"}, {}, 4 * rig.mass});
   t.push_back({"p_P sensor offset 15 kPa, gain 1.03", {"sensor_bias"}, {}, 0, 15000, 1.03});

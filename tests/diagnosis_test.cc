@@ -155,6 +155,40 @@ TEST(DiagnosisCandidates, EditedModelGainsAReservoirThatFeedsTheCylinder) {
   EXPECT_LT(ReservoirPressure(m.get(), d.get(), reservoirs[0]), 0.99 * reservoirs[0].p_source);
 }
 
+// supply_drop's tank form: its edit adds one reservoir that feeds the cylinder, its two parameters
+// set the reservoir's keys on the edited model, and a tank below the chambers' volume (the bound of
+// the reservoir step's stability) is refused by the model, not run.
+TEST(DiagnosisCandidates, SupplyTankFormSetsTheReservoirItAdds) {
+  std::string error;
+  ModelPtr m = LoadEditedModel(kRigC, {}, &error);
+  ASSERT_TRUE(m) << error;
+  std::optional<Measurements> meas = PrepareMeasurements(m.get(), RigCLog(1, 1.0, 0, 1), 100, &error);
+  ASSERT_TRUE(meas) << error;
+  const Candidate* tank = nullptr;
+  std::vector<Candidate> library = CandidateLibrary(m.get(), *meas);
+  for (const Candidate& c : library) {
+    if (c.effect == "supply_drop" && c.parameters.size() == 2) tank = &c;
+  }
+  ASSERT_NE(tank, nullptr);
+  ModelPtr edited = LoadEditedModel(kRigC, tank->edits, &error);
+  ASSERT_TRUE(edited) << error;
+  ASSERT_EQ(Reservoirs(edited.get()).size(), 1u);
+  EXPECT_EQ(Reservoirs(edited.get())[0].cylinders, std::vector<std::string>{"cyl"});
+  SensorModel sensors = SensorModel::Identity(*meas);
+  EXPECT_EQ(tank->parameters[0].apply(edited.get(), &sensors, 2.5e-4), "");
+  EXPECT_EQ(tank->parameters[1].apply(edited.get(), &sensors, 3e-9), "");
+  EXPECT_EQ(Reservoirs(edited.get())[0].volume, 2.5e-4);
+  EXPECT_NE(ConfigurationText(edited.get(), "cyl", &error)->find("supply=supply_tank"), std::string::npos);
+  // the lower bound is the chambers' largest volume together (both dead volumes, both areas over
+  // the stroke), with 5 % to spare
+  const double chambers = *GetParameter(m.get(), "cyl", "P.dead_volume", &error) + *GetParameter(m.get(), "cyl", "N.dead_volume", &error) +
+                          (*GetParameter(m.get(), "cyl", "P.area", &error) + *GetParameter(m.get(), "cyl", "N.area", &error)) *
+                              *GetParameter(m.get(), "cyl", "stroke", &error);
+  EXPECT_DOUBLE_EQ(tank->parameters[0].lower, 1.05 * chambers);
+  EXPECT_NE(tank->parameters[0].apply(edited.get(), &sensors, 0.9 * chambers).find("must exceed"), std::string::npos);
+  EXPECT_EQ(Reservoirs(edited.get())[0].volume, 2.5e-4) << "a refused value leaves the model as it was";
+}
+
 // End to end: a biased p_P sensor (offset 15 kPa, gain 1.03) is named, its offset and gain are
 // recovered within 4 standard errors, and the held-out gap shrinks; the same rig without the
 // bias gives `none`.

@@ -543,5 +543,48 @@ TEST_F(ReservoirDeterminism, SetParameterKeepsTheSupplyLink) {
   mj_deleteModel(m);
 }
 
+// SetReservoirParameter: the model steps as one whose MJCF has the new values, a copy too; what it
+// refuses names reservoir and key and leaves the model as it was.
+TEST_F(ReservoirDeterminism, SetReservoirParameterStepsAsTheWrittenValue) {
+  constexpr int kSteps = 2000;
+  mjModel* m = LoadOrFail(Xml(Moving()));
+  ASSERT_NE(m, nullptr);
+  std::string error;
+  ASSERT_TRUE(SetReservoirParameter(m, "tank", "volume", 3e-4, &error)) << error;
+  ASSERT_TRUE(SetReservoirParameter(m, "tank", "line_conductance", 5e-9, &error)) << error;
+  EXPECT_EQ(Reservoirs(m).at(0).volume, 3e-4);
+  ModelSpec written = Moving();
+  written.reservoir = "volume=3e-4 line_conductance=5e-9";
+  mjModel* w = LoadOrFail(Xml(written));
+  ASSERT_NE(w, nullptr);
+  const std::vector<double> reference = RunFromReset(w, kSteps);
+  EXPECT_TRUE(SameBits(RunFromReset(m, kSteps), reference));
+  EXPECT_FALSE(SameBits(RunFromReset(m, kSteps), [&] {
+    mjModel* original = LoadOrFail(Xml(Moving()));
+    std::vector<double> s = RunFromReset(original, kSteps);
+    mj_deleteModel(original);
+    return s;
+  }())) << "the new values change the motion";
+  mjModel* copy = mj_copyModel(nullptr, m);
+  std::vector<double> from_copy;
+  std::thread t([&] { from_copy = RunFromReset(copy, kSteps); });
+  t.join();
+  EXPECT_TRUE(SameBits(from_copy, reference));
+  // refusals: the model keeps its values
+  EXPECT_FALSE(SetReservoirParameter(m, "reservoir", "volume", 3e-4, &error));
+  EXPECT_THAT(error, HasSubstr("no reservoir 'reservoir'"));
+  EXPECT_FALSE(SetReservoirParameter(m, "tank", "colume", 3e-4, &error));
+  EXPECT_THAT(error, HasSubstr("reservoir 'tank': unknown key 'colume'"));
+  EXPECT_FALSE(SetReservoirParameter(m, "tank", "line_conductance", -1, &error));
+  EXPECT_THAT(error, HasSubstr("reservoir 'tank': key 'line_conductance'"));
+  EXPECT_FALSE(SetReservoirParameter(m, "tank", "volume", 1e-7, &error));
+  EXPECT_THAT(error, HasSubstr("reservoir 'tank': key 'volume'"));
+  EXPECT_THAT(error, HasSubstr("must exceed"));
+  EXPECT_TRUE(SameBits(RunFromReset(m, kSteps), reference));
+  mj_deleteModel(copy);
+  mj_deleteModel(w);
+  mj_deleteModel(m);
+}
+
 }  // namespace
 }  // namespace pneumatic

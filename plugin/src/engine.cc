@@ -758,4 +758,36 @@ bool SetParameter(mjModel* m, const std::string& cylinder, const std::string& ke
   return SetParameter(m, cylinder, key, FormatNumber(value), error);
 }
 
+bool SetReservoirParameter(mjModel* m, const std::string& reservoir, const std::string& key, double value,
+                           std::string* error) {
+  std::string ignored;
+  if (!error) error = &ignored;
+  std::shared_ptr<const CompiledModel> model = Compiled(m, error);
+  if (!model) return false;
+  std::vector<BoundReservoir> reservoirs = model->reservoirs;
+  auto found = std::find_if(reservoirs.begin(), reservoirs.end(),
+                            [&](const BoundReservoir& r) { return r.config.name == reservoir; });
+  if (found == reservoirs.end()) {
+    *error = "no reservoir '" + reservoir + "' in the model";
+    return false;
+  }
+  // the reservoir's text with the key's value replaced, through the parser that checks its range
+  std::istringstream in(FormatReservoirConfig(found->config));
+  std::string text, token;
+  bool known = false;
+  while (in >> token) {
+    if (token.rfind(key + "=", 0) == 0) token = key + "=" + FormatNumber(value), known = true;
+    text += (text.empty() ? "" : " ") + token;
+  }
+  if (!known) {
+    *error = "reservoir '" + reservoir + "': unknown key '" + key + "' (see plugin/README.md, 'Supply reservoirs')";
+    return false;
+  }
+  std::optional<ReservoirConfig> config = ParseReservoirConfig(reservoir, text, error);
+  if (!config) return false;
+  found->config = std::move(*config);
+  std::unique_ptr<CompiledModel> changed = Finish(m, model->cylinders, std::move(reservoirs), error);
+  return changed && StoreModel(m, std::move(changed), error);
+}
+
 }  // namespace pneumatic

@@ -50,6 +50,9 @@ double MaxForce(const mjModel* m, const CylinderSeries& c) {
   return area * (c.info.p_supply - c.info.p_atm);
 }
 
+// the reservoir of the supply_drop candidate's tank form
+constexpr char kSupplyTank[] = "supply_tank";
+
 std::string Replace(const std::string& text, size_t at, size_t length, const std::string& with) {
   return text.substr(0, at) + with + text.substr(at + length);
 }
@@ -92,6 +95,9 @@ ModelPtr LoadEditedModel(const std::string& path, const std::vector<ModelEdit>& 
       return ModelPtr(nullptr, mj_deleteModel);
     }
     const size_t end = xml.find('"', data + 6);
+    // a reservoir that feeds several cylinders is added with the first edit that names it
+    const bool new_reservoir =
+        !e.reservoir.empty() && xml.find("\"pneumatic_reservoir:" + e.reservoir + "\"") == std::string::npos;
     std::string added;
     for (const auto& [key, value] : e.keys) added += " " + key + "=" + value;
     if (!e.reservoir.empty()) added += " supply=" + e.reservoir;
@@ -109,7 +115,7 @@ ModelPtr LoadEditedModel(const std::string& path, const std::vector<ModelEdit>& 
       const size_t after_tag = xml.find_first_of(" \t\n", element);
       xml = Replace(xml, after_tag, 0, " dyntype=\"user\"");
     }
-    if (!e.reservoir.empty()) {
+    if (new_reservoir) {
       const size_t custom = xml.find("<custom>");
       if (custom == std::string::npos) {
         *error = path + ": no <custom> element to add reservoir '" + e.reservoir + "' to";
@@ -119,7 +125,7 @@ ModelPtr LoadEditedModel(const std::string& path, const std::vector<ModelEdit>& 
       for (const auto& [key, value] : e.reservoir_keys) keys += (keys.empty() ? "" : " ") + key + "=" + value;
       xml = Replace(xml, custom + 8, 0, "\n<text name=\"pneumatic_reservoir:" + e.reservoir + "\" data=\"" + keys + "\"/>");
     }
-    if (!e.state_actuators.empty() || !e.force_actuators.empty() || !e.reservoir.empty()) {
+    if (!e.state_actuators.empty() || !e.force_actuators.empty() || new_reservoir) {
       const size_t chamber = xml.find("\"" + e.cylinder + ".P\"");
       const size_t element = chamber == std::string::npos ? chamber : xml.rfind('<', chamber);
       const size_t element_end = element == std::string::npos ? element : xml.find('>', chamber);
@@ -139,7 +145,7 @@ ModelPtr LoadEditedModel(const std::string& path, const std::vector<ModelEdit>& 
       for (const std::string& suffix : e.state_actuators) {
         actuators += "<general name=\"" + e.cylinder + "." + suffix + "\" " + transmission + " dyntype=\"user\" gaintype=\"user\"/>\n";
       }
-      if (!e.reservoir.empty()) {
+      if (new_reservoir) {
         actuators += "<general name=\"" + e.reservoir + ".pressure\" " + transmission + " dyntype=\"user\" gaintype=\"user\"/>\n";
       }
       for (const std::string& suffix : e.force_actuators) {
@@ -261,6 +267,49 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
     c->parameters.push_back(KeyParameter(n, "p_supply", nominal, std::max(cyl.info.p_exhaust * 1.05, 0.5 * nominal), nominal * 1.05,
                                          0.02 * (nominal - cyl.info.p_exhaust)));
   });
+  // supply_drop, second form: a supply that sags under flow. A tank behind a restrictive line from
+  // the compressor feeds every cylinder (a reservoir, plugin/README.md "Supply reservoirs"): a
+  // small tank is a restrictive supply line, whose pressure follows the flow drawn; a large one
+  // sags and refills slowly. Each window starts with the tank full (its pressure is not measured)
+  {
+    Candidate c{"supply_drop", "a supply tank behind a restrictive line, feeding every cylinder", {}, {}, true};
+    const std::vector<ReservoirInfo> reservoirs = Reservoirs(m);
+    double chambers = 0;  // the largest volume of the chambers the tank feeds together (its lower bound)
+    for (const CylinderSeries& cyl : meas.cylinders) {
+      const std::string& n = cyl.info.name;
+      const bool fed = std::any_of(reservoirs.begin(), reservoirs.end(), [&](const ReservoirInfo& r) {
+        return std::find(r.cylinders.begin(), r.cylinders.end(), n) != r.cylinders.end();
+      });
+      if (fed) continue;  // a model with its own reservoir: the lower constant supply remains
+      chambers += Parameter(m, n, "P.dead_volume", 0) + Parameter(m, n, "N.dead_volume", 0) +
+                  (Parameter(m, n, "P.area", 0) + Parameter(m, n, "N.area", 0)) * cyl.stroke;
+      c.edits.push_back({n, {}, {}, {}, {}, kSupplyTank, {}});
+    }
+    if (!c.edits.empty() && chambers > 0) {
+      // bounds: a tank from just above the chambers' volume (the reservoir step's stability
+      // condition) to 1000 times it; a line from 1e-11 kg/(s Pa) (far below any valve's) to 1e-5
+      // (a 75 mm orifice: no restriction); it starts mild, a tank of 100 chamber volumes behind a
+      // line of 1e-7
+      const double volume = 100 * chambers, conductance = 1e-7;
+      char text[96];
+      std::snprintf(text, sizeof(text), "%.6g", volume);
+      c.edits.front().reservoir_keys = {{"volume", text}, {"line_conductance", "1e-7"}};
+      auto tank = [&](const std::string& key, const std::string& unit, double initial, double lower, double upper) {
+        EffectParameter p;
+        p.name = std::string(kSupplyTank) + ":" + key;
+        p.unit = unit;
+        p.initial = initial, p.lower = lower, p.upper = upper, p.scale = initial, p.logarithmic = true;
+        p.apply = [key](mjModel* model, SensorModel*, double value) {
+          std::string error;
+          return SetReservoirParameter(model, kSupplyTank, key, value, &error) ? std::string() : error;
+        };
+        return p;
+      };
+      c.parameters.push_back(tank("volume", "m^3", volume, 1.05 * chambers, 1000 * chambers));
+      c.parameters.push_back(tank("line_conductance", "kg/(s Pa)", conductance, 1e-11, 1e-5));
+      out.push_back(std::move(c));
+    }
+  }
   // line_dynamics: tube volume and its restriction between valve and chamber
   {
     per_cylinder("line_dynamics", "tube volume between valve and chamber with its restriction (both chambers alike)",

@@ -64,6 +64,9 @@ struct Candidate {
   std::string form;    // what is added, in words
   std::vector<ModelEdit> edits;
   std::vector<EffectParameter> parameters;
+  // a richer form of an effect that has a simpler one in the library: fitted only in a round that
+  // the effect's simpler form leads (diagnose.h), as its fit is costly (a state to simulate)
+  bool refinement = false;
 };
 
 // The candidates for m (attached, loaded from its file) and the measurements: every effect of

@@ -314,12 +314,13 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     }
     std::vector<Candidate> candidates = CandidateLibrary(base_model.get(), *train);
     std::vector<Candidate> tried;
-    for (Candidate& c : candidates) {
-      if (std::find(found.begin(), found.end(), c.effect) != found.end()) continue;
-      if (std::find(dropped.begin(), dropped.end(), c.effect) != dropped.end()) continue;
-      if (!options.effects.empty() && std::find(options.effects.begin(), options.effects.end(), c.effect) == options.effects.end()) {
-        continue;
-      }
+    auto eligible = [&](const Candidate& c) {
+      return std::find(found.begin(), found.end(), c.effect) == found.end() &&
+             std::find(dropped.begin(), dropped.end(), c.effect) == dropped.end() &&
+             (options.effects.empty() || std::find(options.effects.begin(), options.effects.end(), c.effect) != options.effects.end());
+    };
+    // fits c on the training log and scores it on the held-out log, into r.ranking and tried
+    auto try_candidate = [&](const Candidate& c) {
       const auto tc = std::chrono::steady_clock::now();
       say("round " + std::to_string(round + 1) + ": fitting " + c.effect + " (" + c.form + ")");
       CandidateResult result;
@@ -358,6 +359,19 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
           ", " + std::to_string(result.evaluations) + " evaluations" + Fixed(", %.1f s", result.seconds));
       r.ranking.push_back(result);
       tried.push_back(c);
+    };
+    for (const Candidate& c : candidates) {
+      if (!c.refinement && eligible(c)) try_candidate(c);
+    }
+    // a richer form of an effect (Candidate::refinement) is fitted only when its effect leads the
+    // round, by the dIC of its simpler form: it refines a verdict, and costs no fit otherwise
+    const CandidateResult* lead = nullptr;
+    for (const CandidateResult& result : r.ranking) {
+      if (!std::isnan(result.delta_ic) && (!lead || result.delta_ic < lead->delta_ic)) lead = &result;
+    }
+    const std::string lead_effect = lead ? lead->effect : "";
+    for (const Candidate& c : candidates) {
+      if (c.refinement && c.effect == lead_effect && eligible(c)) try_candidate(c);
     }
     // rank: fitted by dIC, then failed ones
     std::vector<size_t> order(r.ranking.size());

@@ -14,7 +14,9 @@
 // candidate explains the gap when dIC < max_delta_ic (-10: "very strong" evidence, Kass and
 // Raftery, JASA 90, 1995) and it shrinks the held-out gap by at least min_improvement; the best
 // such candidate is the verdict, and the search repeats with it in the model, so that two effects
-// present together are both found. No such candidate: `none`.
+// present together are both found. No such candidate: `none`. A richer form of an effect
+// (Candidate::refinement, e.g. supply_drop's tank) is fitted only in a round that the effect's
+// simpler form leads by dIC, and then ranked with the rest.
 // How far: the held-out gap before and after, per signal and as one number (effect_fit.h).
 #ifndef PNEUMATIC_DIAGNOSIS_DIAGNOSE_H_
 #define PNEUMATIC_DIAGNOSIS_DIAGNOSE_H_

@@ -167,6 +167,12 @@ void SetReservoirPressure(const mjModel* m, mjData* d, const ReservoirInfo& r, d
 // The reservoir keys (scope "reservoir"), for documentation and tools. Kept apart from
 // Parameters(), whose every row is a key of a cylinder's text.
 const std::vector<ParameterDoc>& ReservoirParameters();
+// Sets one key of reservoir `name` on an attached model, checked as in its MJCF text (the key's
+// range, and the volume against the chambers it feeds); the next step uses it, a copy of the model too.
+// False and *error ("reservoir 'tank': key 'volume': ...") on failure, m unchanged.
+// Call it between steps, as SetParameter.
+bool SetReservoirParameter(mjModel* m, const std::string& name, const std::string& key, double value,
+                           std::string* error);
 
 }  // namespace pneumatic
 
