@@ -81,8 +81,12 @@ mjModel* Load(const std::string& file, bool attach, bool on_tendons = false) {
     std::stringstream text;
     text << in.rdbuf();
     const std::string xml = OnSpatialTendons(text.str());
-    std::string load_error = "a mount=hinge_sites cylinder has no chamber actuator on a joint to move onto a tendon";
-    m = xml.empty() ? nullptr : pneumatic::LoadModelFromText(xml, path, &load_error).release();
+    std::string load_error;
+    if (xml.empty()) {
+      load_error = "a mount=hinge_sites cylinder has no chamber actuator on a joint to move onto a tendon";
+    } else {
+      m = pneumatic::LoadModelFromText(xml, path, &load_error).release();
+    }
     if (!m) std::snprintf(error, sizeof(error), "%s", load_error.c_str());
   } else {
     m = mj_loadXML(path.c_str(), nullptr, error, sizeof(error));

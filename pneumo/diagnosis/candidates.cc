@@ -291,9 +291,10 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
       // (a 75 mm orifice: no restriction); it starts mild, a tank of 100 chamber volumes behind a
       // line of 1e-7
       const double volume = 100 * chambers, conductance = 1e-7;
-      char text[96];
-      std::snprintf(text, sizeof(text), "%.6g", volume);
-      c.edits.front().reservoir_keys = {{"volume", text}, {"line_conductance", "1e-7"}};
+      char volume_text[32], conductance_text[32];
+      std::snprintf(volume_text, sizeof(volume_text), "%.6g", volume);
+      std::snprintf(conductance_text, sizeof(conductance_text), "%.6g", conductance);
+      c.edits.front().reservoir_keys = {{"volume", volume_text}, {"line_conductance", conductance_text}};
       auto tank = [&](const std::string& key, const std::string& unit, double initial, double lower, double upper) {
         EffectParameter p;
         p.name = std::string(kSupplyTank) + ":" + key;
