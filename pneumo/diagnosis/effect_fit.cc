@@ -1,5 +1,6 @@
 #include "diagnosis/effect_fit.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -99,24 +100,39 @@ class EffectCost : public ceres::CostFunction {
   mutable std::string last_error_;
 };
 
-// The coarse scan of FitOptions::scan_points: the logarithmic parameters together at `points`
-// positions t = (j + 1/2) / points along their log ranges (value = lower (upper / lower)^t, so
-// that parameters of one kind, such as a candidate's three leak areas, move alike), the others held.
-// Returns the start for the fit: the best point, or the initial values where no point improves the
-// sum of squares; a point the model refuses counts as no better.
+// The coarse scan of FitOptions::scan_points: the logarithmic parameters at `points` positions
+// t = (j + 1/2) / points along their log ranges (value = lower (upper / lower)^t). Parameters of
+// one kind (one unit, such as a candidate's three leak areas) move together; kinds are scanned on
+// a grid of `grid_points` per kind (a tank's volume and its line's conductance: 4 x 4), since a
+// volume says nothing about the conductance it goes with. The others are held. Returns the start
+// for the fit: the best point, or the initial values where no point improves the sum of squares; a
+// point the model refuses counts as no better.
 std::vector<double> ScanLogarithmic(const EffectCost& cost, const Candidate& c, const std::vector<double>& initial,
-                                    double initial_ss, int points) {
-  bool any = false;
-  for (const EffectParameter& p : c.parameters) any |= p.logarithmic;
-  if (!any) return initial;
+                                    double initial_ss, int points, int grid_points) {
+  std::vector<std::string> kinds;       // the units of the logarithmic parameters, in order
+  std::vector<int> kind_of(c.parameters.size(), -1);
+  for (size_t i = 0; i < c.parameters.size(); ++i) {
+    if (!c.parameters[i].logarithmic) continue;
+    auto it = std::find(kinds.begin(), kinds.end(), c.parameters[i].unit);
+    kind_of[i] = static_cast<int>(it - kinds.begin());
+    if (it == kinds.end()) kinds.push_back(c.parameters[i].unit);
+  }
+  if (kinds.empty() || points <= 0) return initial;  // no scan
+  if (kinds.size() > 1) points = grid_points;
+  if (points <= 0) return initial;
   std::vector<double> best = initial;
   double best_ss = initial_ss;
-  for (int j = 0; j < points; ++j) {
-    const double t = (j + 0.5) / points;
+  int grid = 1;
+  for (size_t k = 0; k < kinds.size(); ++k) grid *= points;
+  for (int g = 0; g < grid; ++g) {
     std::vector<double> trial = initial;
     for (size_t i = 0; i < c.parameters.size(); ++i) {
+      if (kind_of[i] < 0) continue;
+      int j = g;  // the digit of kind_of[i] in base `points`
+      for (int k = 0; k < kind_of[i]; ++k) j /= points;
+      const double t = (j % points + 0.5) / points;
       const EffectParameter& p = c.parameters[i];
-      if (p.logarithmic) trial[i] = p.lower * std::pow(p.upper / p.lower, t);
+      trial[i] = p.lower * std::pow(p.upper / p.lower, t);
     }
     Eigen::VectorXd r;
     if (!cost.Residuals(trial, &r).empty()) continue;
@@ -258,7 +274,7 @@ CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, c
       return fit;
     }
     auto* cost = new EffectCost(m.get(), sensors, c, meas, options, static_cast<int>(ev.residuals.size()));
-    std::vector<double> start = ScanLogarithmic(*cost, c, initial, ev.residuals.squaredNorm(), options.scan_points);
+    std::vector<double> start = ScanLogarithmic(*cost, c, initial, ev.residuals.squaredNorm(), options.scan_points, options.scan_grid_points);
     std::vector<double> z(k);
     for (size_t i = 0; i < k; ++i) z[i] = ToVariable(c.parameters[i], start[i]);
     ceres::Problem problem;

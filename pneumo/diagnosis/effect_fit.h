@@ -76,10 +76,12 @@ struct FitOptions {
   // that Levenberg-Marquardt crawls
   double relative_step = 5e-2;
   // before Levenberg-Marquardt, the logarithmic parameters (magnitudes known only to a decade or
-  // two, so their initial values may be decades off) are scanned together at this many points
-  // spread evenly over their ranges on their log scales, and the fit starts from the best point
-  // (0: no scan)
+  // two, so their initial values may be decades off) are scanned at points spread evenly over
+  // their ranges on their log scales, and the fit starts from the best point: those of one unit
+  // together, at scan_points; parameters of different units (a volume and a conductance) on a
+  // grid of scan_grid_points per unit. 0: no scan
   int scan_points = 6;
+  int scan_grid_points = 4;
   std::function<void(const std::string&)> progress;
 };
 

@@ -1,9 +1,12 @@
 #include "diagnosis/prediction.h"
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <condition_variable>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <thread>
 
 #include "prescribed_motion.h"
@@ -23,18 +26,17 @@ class WindowRunner {
   WindowRunner(const mjModel* m, const Measurements& meas, const SensorModel& sensors, PredictionKind kind)
       : m_(m), meas_(meas), sensors_(sensors), kind_(kind), d_(mj_makeData(m), mj_deleteData) {}
 
-  // predicts rows start+1 .. start+horizon into `out`; "" or why not
-  std::string Run(int start, const Windows& w, std::vector<std::vector<double>>* out) {
+  // predicts rows start+1 .. start+horizon into `out`, from `act` at the warm-up's first row if
+  // given (the history estimate), else from the model's reset state; "" or why not
+  std::string Run(int start, const Windows& w, const std::vector<mjtNum>* act, std::vector<std::vector<double>>* out) {
     mjData* d = d_.get();
     mj_resetData(m_, d);
     const int first = start - w.warmup_rows;
     d->time = meas_.time[first];
+    if (act) std::copy(act->begin(), act->end(), d->act);
     for (int row = first; row < start + w.horizon_rows; ++row) {
       if (row <= start) SetMeasuredState(row, /*velocity_scale=*/1.0);
-      for (size_t c = 0; c < meas_.cylinders.size(); ++c) {
-        const CylinderSeries& cyl = meas_.cylinders[c];
-        for (size_t k = 0; k < cyl.command_actuators.size(); ++k) d->ctrl[cyl.command_actuators[k]] = cyl.commands[k][row];
-      }
+      SetCommands(row);
       for (int k = 0; k < meas_.steps_per_row; ++k) {
         const double s = static_cast<double>(k) / meas_.steps_per_row;
         if (row >= start && kind_ == PredictionKind::kMechanical) HoldMeasuredPressures(row, s);
@@ -44,17 +46,47 @@ class WindowRunner {
           mj_step(m_, d);
         }
       }
-      for (int warning : {mjWARN_BADQACC, mjWARN_BADQVEL, mjWARN_BADQPOS}) {
-        if (d->warning[warning].number > 0) {
-          return "the simulation diverged in the window starting at t = " + std::to_string(meas_.time[start]) + " s";
-        }
-      }
+      if (Diverged()) return "the simulation diverged in the window starting at t = " + std::to_string(meas_.time[start]) + " s";
       if (row >= start) Record(row + 1, out);
     }
     return "";
   }
 
+  // The history estimate: runs the log from its first row up to the last window's warm-up as the
+  // warm-up does (the measured pressures and motion set at every row), and hands d->act at each
+  // window's warm-up row to `ready(window, act)` in window order; "" or why not
+  template <typename Ready>
+  std::string Observe(const Windows& w, Ready ready) {
+    mjData* d = d_.get();
+    mj_resetData(m_, d);
+    d->time = meas_.time[0];
+    int row = 0;
+    for (size_t i = 0; i < w.starts.size(); ++i) {
+      for (const int first = w.starts[i] - w.warmup_rows; row < first; ++row) {
+        SetMeasuredState(row, /*velocity_scale=*/1.0);
+        SetCommands(row);
+        for (int k = 0; k < meas_.steps_per_row; ++k) mj_step(m_, d);
+        if (Diverged()) return "the simulation diverged in the history estimate at t = " + std::to_string(meas_.time[row]) + " s";
+      }
+      ready(i, std::vector<mjtNum>(d->act, d->act + m_->na));
+    }
+    return "";
+  }
+
  private:
+  void SetCommands(int row) {
+    for (const CylinderSeries& cyl : meas_.cylinders) {
+      for (size_t k = 0; k < cyl.command_actuators.size(); ++k) d_->ctrl[cyl.command_actuators[k]] = cyl.commands[k][row];
+    }
+  }
+
+  bool Diverged() const {
+    for (int warning : {mjWARN_BADQACC, mjWARN_BADQVEL, mjWARN_BADQPOS}) {
+      if (d_->warning[warning].number > 0) return true;
+    }
+    return false;
+  }
+
   void SetMeasuredState(int row, double velocity_scale) {
     mjData* d = d_.get();
     for (size_t c = 0; c < meas_.cylinders.size(); ++c) {
@@ -152,19 +184,62 @@ Windows MakeWindows(int rows, int horizon_rows, int warmup_rows) {
   return w;
 }
 
+bool EstimatesOverTheHistory(const mjModel* m) { return !Reservoirs(m).empty(); }
+
 Prediction Predict(const mjModel* m, const Measurements& meas, const SensorModel& sensors, const Windows& windows,
                    PredictionKind kind, int threads) {
   Prediction p;
   p.simulated.assign(meas.signals(), std::vector<double>(meas.rows(), kNaN));
-  std::vector<std::string> errors(windows.starts.size());
+  const size_t n = windows.starts.size();
+  std::vector<std::string> errors(n);
+
+  // the history estimate, handed from the observer to the windows as it reaches each one
+  const bool history = EstimatesOverTheHistory(m);
+  std::vector<std::vector<mjtNum>> start_act(history ? n : 0);
+  std::mutex mutex;
+  std::condition_variable reached;
+  size_t observed = 0;
+  std::string observe_error;
+  auto observe = [&] {
+    WindowRunner runner(m, meas, sensors, kind);
+    const std::string error = runner.Observe(windows, [&](size_t i, std::vector<mjtNum> act) {
+      std::lock_guard<std::mutex> lock(mutex);
+      start_act[i] = std::move(act);
+      observed = i + 1;
+      reached.notify_all();
+    });
+    std::lock_guard<std::mutex> lock(mutex);
+    observe_error = error;
+    observed = n;
+    reached.notify_all();
+  };
+
   std::atomic<size_t> next{0};
   auto work = [&] {
     WindowRunner runner(m, meas, sensors, kind);
-    for (size_t i = next++; i < windows.starts.size(); i = next++) errors[i] = runner.Run(windows.starts[i], windows, &p.simulated);
+    for (size_t i = next++; i < n; i = next++) {
+      if (history) {
+        std::unique_lock<std::mutex> lock(mutex);
+        reached.wait(lock, [&] { return observed > i; });
+        if (!observe_error.empty()) {
+          errors[i] = observe_error;
+          continue;
+        }
+      }
+      errors[i] = runner.Run(windows.starts[i], windows, history ? &start_act[i] : nullptr, &p.simulated);
+    }
   };
+
+  // threads: the observer on one of them when there are two or more, else before the windows
   std::vector<std::thread> pool;
-  const int extra = std::min<int>(std::max(threads, 1), static_cast<int>(windows.starts.size())) - 1;
-  for (int t = 0; t < extra; ++t) pool.emplace_back(work);
+  int workers = std::min<int>(std::max(threads, 1), static_cast<int>(n));
+  if (history && threads >= 2) {
+    pool.emplace_back(observe);
+    workers = std::max(1, std::min(threads - 1, static_cast<int>(n)));
+  } else if (history) {
+    observe();
+  }
+  for (int t = 1; t < workers; ++t) pool.emplace_back(work);
   work();
   for (std::thread& t : pool) t.join();
   for (const std::string& e : errors) {

@@ -13,7 +13,10 @@
 // The state at a window's start: measured p_P, p_N, x (through the inverse of the sensor model),
 // the estimated velocity; states no sensor gives (spool, armature, gas temperature, bristle) are
 // estimated by a warm-up: the model runs the rows before the window with its pressures and motion
-// reset to the measured ones at every row, so those states follow the logged commands.
+// reset to the measured ones at every row, so those states follow the logged commands. A state
+// far slower than the warm-up, a supply reservoir's pressure (it sags and refills over seconds), is
+// estimated over the whole history instead: an observer runs the log that way from its first row
+// and hands each window its states at the warm-up's first row (EstimatesOverTheHistory).
 #ifndef PNEUMATIC_DIAGNOSIS_PREDICTION_H_
 #define PNEUMATIC_DIAGNOSIS_PREDICTION_H_
 
@@ -55,6 +58,13 @@ struct Prediction {
   std::vector<std::vector<double>> simulated;
   std::string error;  // non-empty: the model diverged or refused the state; `simulated` is incomplete
 };
+
+// True if m has a state far slower than a warm-up, a supply reservoir, which Predict then estimates
+// over the log's whole history, at the cost of one more simulation of the log (on a thread of its
+// own when there are two or more). A gas temperature (thermal_model=energy) relaxes over tenths of
+// a second and would gain too, but is left to the warm-up: the heat_transfer candidate is fitted
+// in every diagnosis round, and the history would cost it two to four times its fit (README).
+bool EstimatesOverTheHistory(const mjModel* m);
 
 // Predicts `meas` with m (attached) on up to `threads` threads (windows are independent; each
 // thread has its own mjData, and each window writes only its own rows: the result does not depend
