@@ -2,6 +2,7 @@
 // against closed forms, and one diagnosis end to end on rig C logs whose effect is known.
 #include <cmath>
 #include <cstring>
+#include <optional>
 #include <random>
 #include <string>
 
@@ -164,6 +165,14 @@ TEST(DiagnosisCandidates, EditedModelGainsAReservoirThatFeedsTheCylinder) {
   EXPECT_LT(ReservoirPressure(m.get(), d.get(), reservoirs[0]), 0.99 * reservoirs[0].p_source);
 }
 
+// supply_drop's tank form in the library for m (its two-parameter form), if there is one
+std::optional<Candidate> SupplyTankForm(const mjModel* m, const Measurements& meas) {
+  for (const Candidate& c : CandidateLibrary(m, meas)) {
+    if (c.effect == "supply_drop" && c.parameters.size() == 2) return c;
+  }
+  return std::nullopt;
+}
+
 // supply_drop's tank form: its edit adds one reservoir that feeds the cylinder, its two parameters
 // set the reservoir's keys on the edited model, and a tank below the chambers' volume (the bound of
 // the reservoir step's stability) is refused by the model, not run.
@@ -173,12 +182,8 @@ TEST(DiagnosisCandidates, SupplyTankFormSetsTheReservoirItAdds) {
   ASSERT_TRUE(m) << error;
   std::optional<Measurements> meas = PrepareMeasurements(m.get(), RigCLog(1, 1.0, 0, 1), 100, &error);
   ASSERT_TRUE(meas) << error;
-  const Candidate* tank = nullptr;
-  std::vector<Candidate> library = CandidateLibrary(m.get(), *meas);
-  for (const Candidate& c : library) {
-    if (c.effect == "supply_drop" && c.parameters.size() == 2) tank = &c;
-  }
-  ASSERT_NE(tank, nullptr);
+  const std::optional<Candidate> tank = SupplyTankForm(m.get(), *meas);
+  ASSERT_TRUE(tank);
   ModelPtr edited = LoadEditedModel(kRigC, tank->edits, &error);
   ASSERT_TRUE(edited) << error;
   ASSERT_EQ(Reservoirs(edited.get()).size(), 1u);
@@ -266,12 +271,8 @@ TEST(DiagnosisFit, RecoversASupplyTanksVolumeAndLine) {
   const TankTruth tank(clean.get());
   std::optional<Measurements> meas = PrepareMeasurements(clean.get(), RigCLog(4, 2.0, 0, 1, {tank.edit}), 100, &error);
   ASSERT_TRUE(meas) << error;
-  const Candidate* form = nullptr;
-  std::vector<Candidate> library = CandidateLibrary(clean.get(), *meas);
-  for (const Candidate& c : library) {
-    if (c.effect == "supply_drop" && c.parameters.size() == 2) form = &c;
-  }
-  ASSERT_NE(form, nullptr);
+  const std::optional<Candidate> form = SupplyTankForm(clean.get(), *meas);
+  ASSERT_TRUE(form);
   FitOptions o;
   o.gap.signal_scale = SignalScales(*meas);
   o.gap.windows = MakeWindows(meas->rows(), 100, 10);
