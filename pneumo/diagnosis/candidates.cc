@@ -270,7 +270,8 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
   // supply_drop, second form: a supply that sags under flow. A tank behind a restrictive line from
   // the compressor feeds every cylinder (a reservoir, plugin/README.md "Supply reservoirs"): a
   // small tank is a restrictive supply line, whose pressure follows the flow drawn; a large one
-  // sags and refills slowly. Each window starts with the tank full (its pressure is not measured)
+  // sags and refills slowly. Its pressure, which no sensor gives, is estimated over the log's
+  // history (prediction.h)
   {
     Candidate c{"supply_drop", "a supply tank behind a restrictive line, feeding every cylinder", {}, {}, true};
     const std::vector<ReservoirInfo> reservoirs = Reservoirs(m);

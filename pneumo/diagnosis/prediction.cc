@@ -34,20 +34,23 @@ class WindowRunner {
     const int first = start - w.warmup_rows;
     d->time = meas_.time[first];
     if (act) std::copy(act->begin(), act->end(), d->act);
-    for (int row = first; row < start + w.horizon_rows; ++row) {
-      if (row <= start) SetMeasuredState(row, /*velocity_scale=*/1.0);
+    for (int row = first; row < start; ++row) {
+      StepMeasuredRow(row);
+      if (Diverged()) return "the simulation diverged in the warm-up of the window starting at t = " + std::to_string(meas_.time[start]) + " s";
+    }
+    SetMeasuredState(start);
+    for (int row = start; row < start + w.horizon_rows; ++row) {
       SetCommands(row);
       for (int k = 0; k < meas_.steps_per_row; ++k) {
-        const double s = static_cast<double>(k) / meas_.steps_per_row;
-        if (row >= start && kind_ == PredictionKind::kMechanical) HoldMeasuredPressures(row, s);
-        if (row >= start && kind_ == PredictionKind::kPneumatic) {
+        if (kind_ == PredictionKind::kMechanical) HoldMeasuredPressures(row, static_cast<double>(k) / meas_.steps_per_row);
+        if (kind_ == PredictionKind::kPneumatic) {
           FollowMeasuredMotion(row, k);
         } else {
           mj_step(m_, d);
         }
       }
       if (Diverged()) return "the simulation diverged in the window starting at t = " + std::to_string(meas_.time[start]) + " s";
-      if (row >= start) Record(row + 1, out);
+      Record(row + 1, out);
     }
     return "";
   }
@@ -63,9 +66,7 @@ class WindowRunner {
     int row = 0;
     for (size_t i = 0; i < w.starts.size(); ++i) {
       for (const int first = w.starts[i] - w.warmup_rows; row < first; ++row) {
-        SetMeasuredState(row, /*velocity_scale=*/1.0);
-        SetCommands(row);
-        for (int k = 0; k < meas_.steps_per_row; ++k) mj_step(m_, d);
+        StepMeasuredRow(row);
         if (Diverged()) return "the simulation diverged in the history estimate at t = " + std::to_string(meas_.time[row]) + " s";
       }
       ready(i, std::vector<mjtNum>(d->act, d->act + m_->na));
@@ -74,6 +75,14 @@ class WindowRunner {
   }
 
  private:
+  // one row of the warm-up and of the history estimate: the measured pressures and motion set, the
+  // row's commands, the row's steps
+  void StepMeasuredRow(int row) {
+    SetMeasuredState(row);
+    SetCommands(row);
+    for (int k = 0; k < meas_.steps_per_row; ++k) mj_step(m_, d_.get());
+  }
+
   void SetCommands(int row) {
     for (const CylinderSeries& cyl : meas_.cylinders) {
       for (size_t k = 0; k < cyl.command_actuators.size(); ++k) d_->ctrl[cyl.command_actuators[k]] = cyl.commands[k][row];
@@ -87,7 +96,7 @@ class WindowRunner {
     return false;
   }
 
-  void SetMeasuredState(int row, double velocity_scale) {
+  void SetMeasuredState(int row) {
     mjData* d = d_.get();
     for (size_t c = 0; c < meas_.cylinders.size(); ++c) {
       const CylinderSeries& cyl = meas_.cylinders[c];
@@ -96,7 +105,7 @@ class WindowRunner {
       SetChamberPressure(m_, d, cyl.info, Chamber::kN, TrueValue(meas_, sensors_, base + kPressureN, row));
       const double x = TrueValue(meas_, sensors_, base + kPosition, row);
       d->qpos[m_->jnt_qposadr[cyl.joint]] = (x + cyl.info.x_mid) / cyl.gear;
-      d->qvel[m_->jnt_dofadr[cyl.joint]] = velocity_scale * cyl.velocity[row] / sensors_.gain[base + kPosition] / cyl.gear;
+      d->qvel[m_->jnt_dofadr[cyl.joint]] = cyl.velocity[row] / sensors_.gain[base + kPosition] / cyl.gear;
     }
   }
 
