@@ -327,7 +327,10 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
       result.effect = c.effect, result.form = c.form;
       FitOptions fo;
       fo.gap = train_gap;
-      fo.max_iterations = options.max_iterations;
+      // a richer form gets the joint refit's budget: it is fitted once, in a round its simpler form
+      // leads, and stopped short by the screening's cap it would lose to that form by the cap, not
+      // by the data
+      fo.max_iterations = c.refinement ? std::max(options.max_iterations, options.refit_iterations) : options.max_iterations;
       fo.progress = options.progress;
       CandidateFit fit = FitCandidate(model_path, scenario, c, *train, fo);
       result.evaluations = fit.evaluations;

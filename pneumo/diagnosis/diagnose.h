@@ -16,7 +16,8 @@
 // such candidate is the verdict, and the search repeats with it in the model, so that two effects
 // present together are both found. No such candidate: `none`. A richer form of an effect
 // (Candidate::refinement, e.g. supply_drop's tank) is fitted only in a round that the effect's
-// simpler form leads by dIC, and then ranked with the rest.
+// simpler form leads by dIC, with the joint refit's iterations (refit_iterations), and then
+// ranked with the rest.
 // How far: the held-out gap before and after, per signal and as one number (effect_fit.h).
 #ifndef PNEUMATIC_DIAGNOSIS_DIAGNOSE_H_
 #define PNEUMATIC_DIAGNOSIS_DIAGNOSE_H_
@@ -43,7 +44,7 @@ struct DiagnoseOptions {
   int max_effects = 2;            // effects searched one after the other
   double max_delta_ic = -10;      // dIC a candidate must beat
   double min_improvement = 0.10;  // ... and the held-out gap shrink it must reach (fraction)
-  int max_iterations = 10;        // Levenberg-Marquardt iterations per candidate
+  int max_iterations = 10;        // Levenberg-Marquardt iterations per candidate (screening)
   // once an effect is accepted, the parameters of every effect found so far are fitted again
   // together, from their values so far, with up to this many iterations (0: no refit): a candidate
   // screened in a few iterations may not have converged, and what it leaves unexplained would

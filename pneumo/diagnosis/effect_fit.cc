@@ -288,6 +288,11 @@ CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, c
     solver.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
     solver.linear_solver_type = ceres::DENSE_QR;
     solver.max_num_iterations = options.max_iterations;
+    // Levenberg-Marquardt's first step with damping equal to the (Jacobi-scaled) curvature, the
+    // classic Marquardt start for a starting point that may be far off (the scan's coarse grid):
+    // Ceres' default radius, 1e4, makes the first step in effect a Gauss-Newton step, which from
+    // a tank-and-line scan point jumps to a corner of the box where the fit stalls (README)
+    solver.initial_trust_region_radius = 1.0;
     solver.function_tolerance = 1e-4;
     solver.parameter_tolerance = 1e-4;
     // with bounds, Ceres follows each trust-region step with a projected line search whose default
