@@ -5,23 +5,27 @@
 // on (or two, or none), under a position PID at 500 Hz following a multi-sine reference, with
 // sensor noise; the held-out log has another reference and seed. Each pair is diagnosed with the
 // nominal rig, which lacks the effect. Where the project has more than one form of an effect, the
-// truth uses a form the candidate library does not (truth -> candidate; one supply truth is the
+// truth uses a form the candidate library does not (truth -> candidate), or that only a richer
+// form of the library, fitted when the simpler one leads, has (one supply truth is the tank
 // candidate's own form, and another supply truth then is not):
 //   friction       LuGre (dynamic stick-slip, static above Coulomb)  -> Coulomb (joint frictionloss)
 //   valve_delay    on/off armature delays that lose short pulses     -> (same keys: the armature model)
-//                  proportional valves' dead time (Pade)             -> a slower first-order spool
+//                  proportional valves' dead time (Pade)             -> a slower first-order spool; richer:
+//                                                                       a dead time (Pade) before the lag
+//                  commands reaching the valves 8 ms late (exact)    -> the same
 //   leakage        laminar leaks                                     -> orifice leaks
 //   heat_transfer  gas energy equation, per-chamber wall conductance -> one conductance for both chambers
 //   supply_drop    a shared reservoir behind a restrictive line      -> a lower constant supply pressure, or
 //                  (the candidate's own form), or a small manifold      a tank behind a restrictive line
 //                  behind a hose of another law
 //   payload        a heavier moving body                              -> added mass
-//   line_dynamics  tube volume and restriction; for the proportional   -> tube volume and restriction
-//                  valves also with a 3 ms transport delay (line_delay)     (no delay)
+//   line_dynamics  tube volume and restriction; for the proportional   -> tube volume and restriction;
+//                  valves also with a 3 ms transport delay (line_delay)     richer: with the delay
 //   sensor_bias    offset and gain of the logged p_P                 -> offset and gain of one signal
 // Prints one line per case, the confusion matrix (true effect vs verdict) and the median held-out
 // shrink of the cases with an effect. Usage: bench_diagnose [--quick] [--rig A|B|C] [--case TEXT] [--duration S]
-// [--verbose] (--case: only the truths whose label contains TEXT; --verbose: the diagnosis' progress on stderr)
+// [--rate HZ] [--verbose] (--case: only the truths whose label contains TEXT; --rate: the controller's and the
+// log's rate, 500 Hz by default; --verbose: the diagnosis' progress on stderr)
 // bench_diagnose --speed: the wall time of diagnosing one 20 s log of rig C (a laminar leak, the
 // documented default split: 70 % train, 30 % held out) logged at 500 Hz and at 1 kHz, on 2 threads.
 #include <algorithm>
@@ -65,6 +69,7 @@ struct Truth {
   std::vector<dg::ModelEdit> edits;
   double added_mass = 0;             // kg on the piston body
   double p_offset = 0, p_gain = 1;   // logged p_P = p_atm + offset + gain (p - p_atm)
+  double command_delay = 0;          // s: the valves get the logged commands this late (whole ticks)
 };
 
 // a multi-sine reference (4 components, 0.2-1.2 Hz, random phases) at 60 % of the half stroke
@@ -109,6 +114,7 @@ std::optional<pneumatic::log::Log> Simulate(const Rig& rig, const Truth& truth, 
   o.seed = seed;
   o.noise_pressure = 500;   // Pa
   o.noise_position = 5e-5;  // m
+  o.command_delay_ticks = static_cast<int>(std::lround(truth.command_delay * control_rate));
   pneumatic::ClosedLoopResult r = pneumatic::RunClosedLoop(m.get(), o);
   if (!r.log) {
     *error = r.error;
@@ -143,6 +149,13 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
   if (valve == "proportional_per_chamber" && HasKey("spool_dead_time")) {
     t.push_back({"valve dead time 8 ms (Pade)", {"valve_delay"},
                  {{"cyl", {"dP1", "dP2", "dN1", "dN2"}, {}, {}, {{"spool_dead_time", "0.008"}}}}});
+  }
+  {
+    // a field bus' latency: every command reaches the valves 8 ms late, an exact dead time (4 ticks
+    // at 500 Hz), which no valve model of the library has
+    Truth late{"valve commands 8 ms late (exact dead time)", {"valve_delay"}, {}};
+    late.command_delay = 0.008;
+    t.push_back(late);
   }
   if (valve == "proportional_5_3") {
     t.push_back({"spool deadband 12 %", {"valve_deadband"}, {{"cyl", {}, {}, {}, {{"deadband", "0.12"}}}}});
@@ -226,7 +239,7 @@ bool DescribeRig(Rig* rig, std::string* valve, std::string* error_out) {
 int main(int argc, char** argv) {
   bool quick = false, speed = false, verbose = false;
   std::string only, only_case;
-  double duration = 12;
+  double duration = 12, rate = 500;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
     else if (!std::strcmp(argv[i], "--speed")) speed = true;
@@ -234,6 +247,7 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--rig") && i + 1 < argc) only = argv[++i];
     else if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only_case = argv[++i];
     else if (!std::strcmp(argv[i], "--duration") && i + 1 < argc) duration = std::atof(argv[++i]);
+    else if (!std::strcmp(argv[i], "--rate") && i + 1 < argc) rate = std::atof(argv[++i]);
   }
   pneumatic::benchmarks::PrintMachine(PNEUMATIC_BUILD_TYPE);
   const std::string dir = PNEUMATIC_MODELS_DIR;
@@ -247,8 +261,8 @@ int main(int argc, char** argv) {
     }
     Truth leak{"laminar leak across the piston 2e-10 kg/(s Pa)", {"leakage"},
                {{"cyl", {}, {}, {}, {{"piston_leak_conductance", "2e-10"}, {"P.atmosphere_leak_conductance", "5e-11"}}}}};
-    for (double rate : {500.0, 1000.0}) {
-      std::optional<pneumatic::log::Log> log = Simulate(rig, leak, 1, 20, &error, rate);
+    for (double speed_rate : {500.0, 1000.0}) {
+      std::optional<pneumatic::log::Log> log = Simulate(rig, leak, 1, 20, &error, speed_rate);
       if (!log) {
         std::fprintf(stderr, "%s\n", error.c_str());
         return 1;
@@ -260,7 +274,7 @@ int main(int argc, char** argv) {
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       std::string found;
       for (const std::string& e : d.effects) found += (found.empty() ? "" : "+") + e;
-      std::printf("rig C, 20 s at %4.0f Hz (%zu rows), full library, 2 threads: %.1f s (verdict %s%s)\n", rate, log->rows(),
+      std::printf("rig C, 20 s at %4.0f Hz (%zu rows), full library, 2 threads: %.1f s (verdict %s%s)\n", speed_rate, log->rows(),
                   seconds, found.empty() ? "none" : found.c_str(), d.error.empty() ? "" : (", error: " + d.error).c_str());
       std::fflush(stdout);
     }
@@ -281,8 +295,8 @@ int main(int argc, char** argv) {
     for (const Truth& truth : truths) {
       if (!only_case.empty() && truth.label.find(only_case) == std::string::npos) continue;
       const auto t0 = std::chrono::steady_clock::now();
-      std::optional<pneumatic::log::Log> train = Simulate(rig, truth, 1, duration, &error);
-      std::optional<pneumatic::log::Log> held = train ? Simulate(rig, truth, 2, duration, &error) : std::nullopt;
+      std::optional<pneumatic::log::Log> train = Simulate(rig, truth, 1, duration, &error, rate);
+      std::optional<pneumatic::log::Log> held = train ? Simulate(rig, truth, 2, duration, &error, rate) : std::nullopt;
       if (!held) {
         std::printf("rig %s %-60s simulation failed: %s\n", rig.name.c_str(), truth.label.c_str(), error.c_str());
         continue;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <deque>
 #include <cmath>
 #include <memory>
 
@@ -231,6 +232,8 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
     return fail("unknown controller '" + options.controller + "' (choices: pid none)");
   }
   if (!(options.noise_pressure >= 0) || !(options.noise_position >= 0)) return fail("sensor noise must be >= 0");
+  if (options.command_delay_ticks < 0) return fail("the command delay must be >= 0 ticks");
+  if (options.command_delay_ticks > 0 && options.resume) return fail("a run with a command delay cannot be resumed");
   const double period = 1 / options.control_rate;
   const long steps_per_tick = std::lround(period / m->opt.timestep);
   if (steps_per_tick < 1 || std::fabs(static_cast<double>(steps_per_tick) * m->opt.timestep - period) > 1e-9 * period) {
@@ -349,6 +352,11 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
   std::vector<double> mobility;
   std::vector<mjtNum> mobility_workspace;
   std::vector<CylinderCommands> commands(channels.size());
+  // command_delay_ticks: the commands on their way to the valves, oldest first, and the last to
+  // arrive (at rest until the first does)
+  std::deque<std::vector<CylinderCommands>> in_flight;
+  std::vector<CylinderCommands> arrived(channels.size());
+  for (size_t i = 0; i < channels.size(); ++i) arrived[i] = RestCommands(channels[i].drive);
   if (options.observer) {
     if (std::string e = options.observer(d.get()); !e.empty()) return fail(e);
   }
@@ -385,12 +393,20 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
 
     // the row: this tick's commands and the samples taken before they act
     out.time.push_back(t);
+    if (options.command_delay_ticks > 0) {
+      in_flight.push_back(commands);
+      if (in_flight.size() > static_cast<size_t>(options.command_delay_ticks)) {
+        arrived = in_flight.front();
+        in_flight.pop_front();
+      }
+    }
+    const std::vector<CylinderCommands>& applied = options.command_delay_ticks > 0 ? arrived : commands;
     size_t column = first_measured;
     for (size_t i = 0; i < channels.size(); ++i) {
       const Channel& ch = channels[i];
       for (size_t j = 0; j < ch.command_columns.size(); ++j) {
         const auto [actuator, out_column] = ch.command_columns[j];
-        d->ctrl[actuator] = commands[i][j].second;
+        d->ctrl[actuator] = applied[i][j].second;
         out.values[static_cast<size_t>(out_column)].push_back(commands[i][j].second);
       }
       const CylinderMeasurement& y = measured[i];

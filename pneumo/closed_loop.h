@@ -56,6 +56,11 @@ struct ClosedLoopOptions {
   std::uint64_t seed = 1;
   double noise_pressure = 0;  // Pa: std of the Gaussian noise on the measured p_P, p_N
   double noise_position = 0;  // m or rad: on the measured x
+  // the valves receive each tick's commands this many ticks late: a field bus' latency, an exact
+  // dead time that no valve model has (bench_diagnose's valve_delay truth of another form). The
+  // log holds the commands as the controller sent them; the valves stay at rest until the first
+  // arrives. Not with `resume`
+  int command_delay_ticks = 0;
   // called now and then with the fraction done (0..1), for a progress display
   std::function<void(double)> progress;
   // continue a run from its final_state instead of the model's initial state (same model and

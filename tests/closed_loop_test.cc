@@ -365,6 +365,45 @@ TEST(ClosedLoop, BadOptionsAreNamed) {
   options.controller = "pid";
   options.cylinder_gains["knee"] = {};
   EXPECT_THAT(RunClosedLoop(model.m(), options).error, HasSubstr("'knee', which is not a cylinder"));
+  options.cylinder_gains.clear();
+  options.command_delay_ticks = -1;
+  EXPECT_THAT(RunClosedLoop(model.m(), options).error, HasSubstr("command delay must be >= 0"));
+  options.command_delay_ticks = 2;
+  ClosedLoopState state;
+  options.resume = &state;
+  EXPECT_THAT(RunClosedLoop(model.m(), options).error, HasSubstr("command delay cannot be resumed"));
+}
+
+// command_delay_ticks: the valves get each tick's commands, as logged, that many ticks late, and
+// stay at rest (rig C: 5 V, each valve at its centre) until the first arrives
+TEST(ClosedLoop, ACommandDelayHandsTheValvesEachTicksCommandsThatManyTicksLate) {
+  AttachedModel model;
+  ASSERT_TRUE(model.Load(ShippedModel("rig_per_chamber.xml"), true)) << model.error();
+  ClosedLoopOptions options;
+  options.duration = 0.1;
+  options.control_rate = 100;  // 100 steps of 0.1 ms per tick
+  options.command_delay_ticks = 3;
+  const log::Log ref = StepReference(0.02);
+  options.reference = &ref;
+  const int uP = mj_name2id(model.m(), mjOBJ_ACTUATOR, "cyl.uP");
+  std::vector<double> applied;  // cyl.uP's ctrl over each step
+  bool first = true;
+  options.observer = [&](const mjData* d) {
+    if (!first) applied.push_back(d->ctrl[uP]);
+    first = false;
+    return std::string();
+  };
+  ClosedLoopResult r = RunClosedLoop(model.m(), options);
+  ASSERT_TRUE(r.log) << r.error;
+  const std::vector<double>& logged = r.log->values[r.log->FindColumn("cyl", "uP")];
+  ASSERT_EQ(logged.size(), 10u);
+  ASSERT_EQ(applied.size(), 1000u);
+  EXPECT_NEAR(applied[0], 5.0, 1e-12);
+  for (size_t k = 0; k < 10; ++k) {
+    const double expected = k < 3 ? applied[0] : logged[k - 3];
+    for (size_t step = 0; step < 100; ++step) ASSERT_EQ(applied[100 * k + step], expected) << "tick " << k << ", step " << step;
+  }
+  EXPECT_GT(std::fabs(logged[0] - 5.0), 0.1) << "the PID's first command is not the rest command: the test shows nothing";
 }
 
 // Issue 16: "a rollout saved mid-way and resumed gives the same log, bit for bit": 1 s, then 1 s

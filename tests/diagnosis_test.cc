@@ -1,5 +1,6 @@
 // The sim-to-real diagnosis (issue 14): its inputs refused with clear errors, its building blocks
 // against closed forms, and one diagnosis end to end on rig C logs whose effect is known.
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <optional>
@@ -27,9 +28,10 @@ std::string Number(double value) {
   return text;
 }
 
-// a closed-loop rig C log (with `edits` in the rig: its truth): PID at 500 Hz on a two-sine
+// a closed-loop rig C log (with `edits` in the rig: its truth): PID at 500 Hz (or control_rate) on a two-sine
 // reference, 500 Pa / 0.05 mm sensor noise; the logged p_P passed through offset and gain (a biased sensor)
-log::Log RigCLog(std::uint64_t seed, double duration, double p_offset, double p_gain, const std::vector<ModelEdit>& edits = {}) {
+log::Log RigCLog(std::uint64_t seed, double duration, double p_offset, double p_gain, const std::vector<ModelEdit>& edits = {},
+                 double control_rate = 500) {
   std::string error;
   ModelPtr m = LoadEditedModel(kRigC, edits, &error);
   EXPECT_TRUE(m) << error;
@@ -43,7 +45,7 @@ log::Log RigCLog(std::uint64_t seed, double duration, double p_offset, double p_
   }
   ClosedLoopOptions o;
   o.duration = duration;
-  o.control_rate = 500;
+  o.control_rate = control_rate;
   o.reference = &ref;
   o.seed = seed;
   o.noise_pressure = 500;
@@ -165,12 +167,22 @@ TEST(DiagnosisCandidates, EditedModelGainsAReservoirThatFeedsTheCylinder) {
   EXPECT_LT(ReservoirPressure(m.get(), d.get(), reservoirs[0]), 0.99 * reservoirs[0].p_source);
 }
 
-// supply_drop's tank form in the library for m (its two-parameter form), if there is one
-std::optional<Candidate> SupplyTankForm(const mjModel* m, const Measurements& meas) {
+// the richer form (Candidate::refinement) of `effect` in the library for m, if there is one
+std::optional<Candidate> RicherForm(const mjModel* m, const Measurements& meas, const std::string& effect) {
   for (const Candidate& c : CandidateLibrary(m, meas)) {
-    if (c.effect == "supply_drop" && c.parameters.size() == 2) return c;
+    if (c.effect == effect && c.refinement) return c;
   }
   return std::nullopt;
+}
+
+// `form` fitted on a 500 Hz rig C log as the diagnosis rounds fit (the default windows: 0.2 s
+// after a 20 ms warm-up), with at most max_iterations of Levenberg-Marquardt
+CandidateFit FitOnRigC(const Candidate& form, const Measurements& meas, int max_iterations) {
+  FitOptions o;
+  o.gap.signal_scale = SignalScales(meas);
+  o.gap.windows = MakeWindows(meas.rows(), 100, 10);
+  o.max_iterations = max_iterations;
+  return FitCandidate(kRigC, Scenario{}, form, meas, o);
 }
 
 // supply_drop's tank form: its edit adds one reservoir that feeds the cylinder, its two parameters
@@ -182,7 +194,7 @@ TEST(DiagnosisCandidates, SupplyTankFormSetsTheReservoirItAdds) {
   ASSERT_TRUE(m) << error;
   std::optional<Measurements> meas = PrepareMeasurements(m.get(), RigCLog(1, 1.0, 0, 1), 100, &error);
   ASSERT_TRUE(meas) << error;
-  const std::optional<Candidate> tank = SupplyTankForm(m.get(), *meas);
+  const std::optional<Candidate> tank = RicherForm(m.get(), *meas, "supply_drop");
   ASSERT_TRUE(tank);
   ModelPtr edited = LoadEditedModel(kRigC, tank->edits, &error);
   ASSERT_TRUE(edited) << error;
@@ -260,6 +272,35 @@ TEST(DiagnosisPrediction, EstimatesASupplyTankOverTheLogsHistory) {
   }
 }
 
+// A line's pressure is not measured: a window's warm-up starts it at its chamber's measured
+// pressure and takes it on from there. On a 100 Hz log, whose 20 ms warm-up is two rows, a line model
+// then predicts its own log as well as the rig without a line predicts its own. (Started at the
+// reset's atmosphere, it came to its level only by a part of the way per row: 4.4 kPa RMS on p_P
+// against the 0.5 kPa noise; the test failed so.)
+TEST(DiagnosisPrediction, EstimatesALinesPressureOnA100HzLog) {
+  std::string error;
+  const ModelEdit line{"cyl", {"LP", "LN"}, {}, {}, {{"line_volume", "2.5e-6"}, {"line_conductance", "8.7e-9"}}};
+  ModelPtr clean = LoadEditedModel(kRigC, {}, &error);
+  ASSERT_TRUE(clean) << error;
+  ModelPtr lined = LoadEditedModel(kRigC, {line}, &error);
+  ASSERT_TRUE(lined) << error;
+  const int warmup_rows = static_cast<int>(std::lround(DiagnoseOptions().warmup_s * 100));
+  ASSERT_EQ(warmup_rows, 2);
+  auto self = [&](const mjModel* m, const std::vector<ModelEdit>& edits) {
+    std::optional<Measurements> meas = PrepareMeasurements(m, RigCLog(3, 4.0, 0, 1, edits, 100), 50, &error);
+    EXPECT_TRUE(meas) << error;
+    GapOptions g;
+    g.signal_scale = SignalScales(*meas);
+    g.windows = MakeWindows(meas->rows(), 20, warmup_rows);
+    Evaluated e = Evaluate(m, SensorModel::Identity(*meas), *meas, g);
+    EXPECT_EQ(e.error, "");
+    return e;
+  };
+  const Evaluated clean_self = self(clean.get(), {}), line_self = self(lined.get(), {line});
+  for (int s : {kPressureP, kPressureN}) EXPECT_LT(clean_self.signal_rms[s], 1.2 * 500) << "signal " << s;
+  for (int s : {kPressureP, kPressureN, kPosition}) EXPECT_LT(line_self.signal_rms[s], 1.1 * clean_self.signal_rms[s]) << "signal " << s;
+}
+
 // supply_drop's tank form fitted to a log of a tank: its volume and its line's conductance are
 // of different kinds, so the scan before Levenberg-Marquardt tries them on a grid; from there the
 // fit, capped at the diagnosis rounds' 10 iterations, recovers both within 4 standard errors
@@ -271,19 +312,45 @@ TEST(DiagnosisFit, RecoversASupplyTanksVolumeAndLine) {
   const TankTruth tank(clean.get());
   std::optional<Measurements> meas = PrepareMeasurements(clean.get(), RigCLog(4, 2.0, 0, 1, {tank.edit}), 100, &error);
   ASSERT_TRUE(meas) << error;
-  const std::optional<Candidate> form = SupplyTankForm(clean.get(), *meas);
+  const std::optional<Candidate> form = RicherForm(clean.get(), *meas, "supply_drop");
   ASSERT_TRUE(form);
-  FitOptions o;
-  o.gap.signal_scale = SignalScales(*meas);
-  o.gap.windows = MakeWindows(meas->rows(), 100, 10);
-  o.max_iterations = 10;
-  CandidateFit fit = FitCandidate(kRigC, Scenario{}, *form, *meas, o);
+  CandidateFit fit = FitOnRigC(*form, *meas, 10);
   ASSERT_EQ(fit.error, "");
   const double truth[2] = {tank.volume, tank.line_conductance};
   for (int i = 0; i < 2; ++i) {
     EXPECT_NEAR(fit.values[i], truth[i], 4 * fit.standard_errors[i]) << form->parameters[i].name;
     EXPECT_LT(fit.standard_errors[i], 0.05 * truth[i]) << form->parameters[i].name;
   }
+}
+
+// The dead-time forms of valve_delay and line_dynamics: rig C's edited model loads with the delay
+// lines, the lag and the tube they add, and fitted on a log of an 8 ms valve dead time (the Pade
+// delay line), valve_delay's richer form recovers it within 4 standard errors, and the valve's mean
+// delay within 5 %, with the joint refit's 30 iterations that a richer form gets (diagnose.h).
+TEST(DiagnosisFit, RecoversAValveDeadTime) {
+  std::string error;
+  ModelPtr clean = LoadEditedModel(kRigC, {}, &error);
+  ASSERT_TRUE(clean) << error;
+  const ModelEdit dead_time{"cyl", {"dP1", "dP2", "dN1", "dN2"}, {}, {}, {{"spool_dead_time", "0.008"}}};
+  std::optional<Measurements> meas = PrepareMeasurements(clean.get(), RigCLog(4, 2.0, 0, 1, {dead_time}), 100, &error);
+  ASSERT_TRUE(meas) << error;
+  for (const std::string effect : {"valve_delay", "line_dynamics"}) {
+    const std::optional<Candidate> form = RicherForm(clean.get(), *meas, effect);
+    ASSERT_TRUE(form) << effect;
+    ModelPtr edited = LoadEditedModel(kRigC, form->edits, &error);
+    ASSERT_TRUE(edited) << effect << ": " << error;
+    for (const char* state : {"cyl.dP1", "cyl.dP2", "cyl.dN1", "cyl.dN2"}) EXPECT_GE(mj_name2id(edited.get(), mjOBJ_ACTUATOR, state), 0) << effect;
+  }
+  const std::optional<Candidate> form = RicherForm(clean.get(), *meas, "valve_delay");
+  ASSERT_EQ(form->parameters.size(), 2u);
+  ASSERT_EQ(form->parameters[0].name, "cyl:spool_dead_time");
+  CandidateFit fit = FitOnRigC(*form, *meas, 30);
+  ASSERT_EQ(fit.error, "");
+  EXPECT_NEAR(fit.values[0], 0.008, 4 * fit.standard_errors[0]);
+  // what 2 s of closed loop determine best is the valve's mean delay, the first moment of its impulse
+  // response: T of the delay line plus tau of the lag (the truth: 8 ms and no lag); the split
+  // between the two is looser (measured: 6.7 +- 0.5 ms and 1.3 +- 0.6 ms)
+  EXPECT_NEAR(fit.values[0] + fit.values[1], 0.008, 0.05 * 0.008);
 }
 
 // End to end: a biased p_P sensor (offset 15 kPa, gain 1.03) is named, its offset and gain are

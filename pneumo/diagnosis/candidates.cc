@@ -176,8 +176,8 @@ ModelPtr LoadEditedModel(const std::string& path, const std::vector<ModelEdit>& 
 std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& meas) {
   std::vector<Candidate> out;
   auto per_cylinder = [&](const std::string& effect, const std::string& form,
-                          const std::function<void(const CylinderSeries&, Candidate*)>& add) {
-    Candidate c{effect, form, {}, {}};
+                          const std::function<void(const CylinderSeries&, Candidate*)>& add, bool refinement = false) {
+    Candidate c{effect, form, {}, {}, refinement};
     for (const CylinderSeries& cyl : meas.cylinders) add(cyl, &c);
     if (!c.parameters.empty()) out.push_back(std::move(c));
   };
@@ -207,6 +207,36 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
       c->parameters.push_back(KeyParameter(n, "spool_time_constant", tau > 0 ? tau : 0.002, 1e-4, 0.1, 2e-3, true));
     }
   });
+  // valve_delay, second form: a dead time before the spool's lag (a valve driver's or a field bus'
+  // latency, a slow solenoid that moves only after a while): the command reaches the valve through the
+  // (1,2) Pade delay line of spool_dead_time (plugin/src/valves.h, ValveSignal), then the lag of the
+  // first form. A refinement (candidates.h): a lag alone is its limit of a vanishing dead time
+  per_cylinder("valve_delay", "a valve dead time (Pade delay line) before a first-order lag", [&](const CylinderSeries& cyl, Candidate* c) {
+    const std::string& n = cyl.info.name;
+    const std::string valve = Choice(m, n, "valve");
+    if (valve != "proportional_5_3" && valve != "proportional_per_chamber") return;
+    const bool per_chamber = valve == "proportional_per_chamber";
+    ModelEdit edit{n, {}, {}, {}, {}};
+    if (Parameter(m, n, "spool_dead_time", 0) + Parameter(m, n, "line_delay", 0) == 0) {
+      edit.state_actuators = per_chamber ? std::vector<std::string>{"dP1", "dP2", "dN1", "dN2"} : std::vector<std::string>{"d1", "d2"};
+      edit.keys.push_back({"spool_dead_time", "0.002"});
+    }
+    const double tau = Parameter(m, n, "spool_time_constant", 0);
+    if (per_chamber && tau == 0) {
+      edit.stateful_commands = {"uP", "uN"};
+      edit.keys.push_back({"spool_time_constant", "0.002"});
+    }
+    if (!edit.state_actuators.empty() || !edit.stateful_commands.empty()) c->edits.push_back(edit);
+    // the dead time on a log scale, scanned (a tenth of a millisecond to 50 ms); the lag from the
+    // model's (or 2 ms), on a linear scale, so that the scan moves the dead time alone
+    const double dead_time = Parameter(m, n, "spool_dead_time", 0);
+    c->parameters.push_back(KeyParameter(n, "spool_dead_time", dead_time > 0 ? dead_time : 0.002, 1e-4, 0.05, 2e-3, true));
+    if (per_chamber) {
+      c->parameters.push_back(KeyParameter(n, "spool_time_constant", tau > 0 ? tau : 0.002, 1e-4, 0.1, 2e-3));
+    } else {
+      c->parameters.push_back(KeyParameter(n, "spool_time_constant", tau, 0, 0.1, 2e-3));
+    }
+  }, true);
   // valve_deadband: no flow for small spool displacements
   per_cylinder("valve_deadband", "", [&](const CylinderSeries& cyl, Candidate* c) {
     const std::string& n = cyl.info.name;
@@ -327,6 +357,34 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
                    c->parameters.push_back(KeyParameter(n, "line_volume", v0, 0.1 * v0, 100 * v0, v0, true));
                    c->parameters.push_back(KeyParameter(n, "line_conductance", 1e-8, 1e-10, 1e-7, 1e-8, true));
                  });
+    // line_dynamics, second form: the same tube with its transport delay L/c (effects.md: "extra volume
+    // and transport delay"; about 3 ms per metre), through line_delay's Pade delay line (proportional
+    // valves: plugin/src/config.cc). A refinement (candidates.h): the first form is its limit of a
+    // vanishing delay. The delay on a linear scale, not scanned: the scan keeps its 4 x 4 grid
+    per_cylinder("line_dynamics", "tube volume, restriction and transport delay between valve and chamber (both chambers alike)",
+                 [&](const CylinderSeries& cyl, Candidate* c) {
+                   const std::string& n = cyl.info.name;
+                   const std::string valve = Choice(m, n, "valve");
+                   if (valve != "proportional_5_3" && valve != "proportional_per_chamber") return;
+                   const double v0 = Parameter(m, n, "P.dead_volume", 1e-6);
+                   ModelEdit edit{n, {}, {}, {}, {}};
+                   if (Parameter(m, n, "P.line_volume", 0) == 0) {
+                     edit.state_actuators = {"LP", "LN"};
+                     edit.keys = {{"line_volume", std::to_string(v0)}, {"line_conductance", "1e-8"}};
+                   }
+                   if (Parameter(m, n, "spool_dead_time", 0) + Parameter(m, n, "line_delay", 0) == 0) {
+                     const std::vector<std::string> delay = valve == "proportional_per_chamber"
+                                                                ? std::vector<std::string>{"dP1", "dP2", "dN1", "dN2"}
+                                                                : std::vector<std::string>{"d1", "d2"};
+                     edit.state_actuators.insert(edit.state_actuators.end(), delay.begin(), delay.end());
+                     edit.keys.push_back({"line_delay", "0.001"});
+                   }
+                   if (!edit.state_actuators.empty()) c->edits.push_back(edit);
+                   const double delay = Parameter(m, n, "line_delay", 0);
+                   c->parameters.push_back(KeyParameter(n, "line_volume", v0, 0.1 * v0, 100 * v0, v0, true));
+                   c->parameters.push_back(KeyParameter(n, "line_conductance", 1e-8, 1e-10, 1e-7, 1e-8, true));
+                   c->parameters.push_back(KeyParameter(n, "line_delay", delay > 0 ? delay : 0.001, 1e-4, 0.02, 1e-3));
+                 }, true);
   }
   // payload: a moving mass different from the model's, on the body the cylinder's joint moves. Fitted
   // as the body's mass on a log scale: a payload may be several times the body's own mass, which a

@@ -15,7 +15,8 @@
 // Raftery, JASA 90, 1995) and it shrinks the held-out gap by at least min_improvement; the best
 // such candidate is the verdict, and the search repeats with it in the model, so that two effects
 // present together are both found. No such candidate: `none`. A richer form of an effect
-// (Candidate::refinement, e.g. supply_drop's tank) is fitted only in a round that the effect's
+// (Candidate::refinement: supply_drop's tank, valve_delay's dead time, line_dynamics' transport
+// delay) is fitted only in a round that the effect's
 // simpler form leads by dIC, with the joint refit's iterations (refit_iterations), and then
 // ranked with the rest.
 // How far: the held-out gap before and after, per signal and as one number (effect_fit.h).
