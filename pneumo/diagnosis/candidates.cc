@@ -11,6 +11,13 @@
 namespace pneumatic::diagnosis {
 namespace {
 
+// a value as MJCF text (std::to_string's %f would write a dead volume of 4e-7 m^3 as 0.000000)
+std::string Number(double value) {
+  char text[32];
+  std::snprintf(text, sizeof(text), "%.6g", value);
+  return text;
+}
+
 std::string KeyUnit(const std::string& key) {
   std::string base = key.size() > 2 && key[1] == '.' ? key.substr(2) : key;
   for (const ParameterDoc& doc : Parameters()) {
@@ -322,10 +329,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
       // (a 75 mm orifice: no restriction); it starts mild, a tank of 100 chamber volumes behind a
       // line of 1e-7
       const double volume = 100 * chambers, conductance = 1e-7;
-      char volume_text[32], conductance_text[32];
-      std::snprintf(volume_text, sizeof(volume_text), "%.6g", volume);
-      std::snprintf(conductance_text, sizeof(conductance_text), "%.6g", conductance);
-      c.edits.front().reservoir_keys = {{"volume", volume_text}, {"line_conductance", conductance_text}};
+      c.edits.front().reservoir_keys = {{"volume", Number(volume)}, {"line_conductance", Number(conductance)}};
       auto tank = [&](const std::string& key, const std::string& unit, double initial, double lower, double upper) {
         EffectParameter p;
         p.name = std::string(kSupplyTank) + ":" + key;
@@ -349,7 +353,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
                    const std::string& n = cyl.info.name;
                    const double v0 = Parameter(m, n, "P.dead_volume", 1e-6);
                    if (Parameter(m, n, "P.line_volume", 0) == 0) {
-                     c->edits.push_back({n, {"LP", "LN"}, {}, {}, {{"line_volume", std::to_string(v0)}, {"line_conductance", "1e-8"}}});
+                     c->edits.push_back({n, {"LP", "LN"}, {}, {}, {{"line_volume", Number(v0)}, {"line_conductance", "1e-8"}}});
                    }
                    // bounds: a line of 0.1 to 100 dead volumes; a restriction from 1e-10 kg/(s Pa) (a
                    // hair-thin tube) to 1e-7 (an orifice of about 9 mm): wider restrictions make the line
@@ -370,7 +374,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
                    ModelEdit edit{n, {}, {}, {}, {}};
                    if (Parameter(m, n, "P.line_volume", 0) == 0) {
                      edit.state_actuators = {"LP", "LN"};
-                     edit.keys = {{"line_volume", std::to_string(v0)}, {"line_conductance", "1e-8"}};
+                     edit.keys = {{"line_volume", Number(v0)}, {"line_conductance", "1e-8"}};
                    }
                    if (Parameter(m, n, "spool_dead_time", 0) + Parameter(m, n, "line_delay", 0) == 0) {
                      const std::vector<std::string> delay = valve == "proportional_per_chamber"
