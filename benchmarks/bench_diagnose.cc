@@ -142,13 +142,13 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
     // the switching times of paper 002's solenoid valves (its experimental setup): 1.3 ms opening, 0.2 ms closing
     t.push_back({"valve delays 1.3 ms open, 0.2 ms close (paper 002)", {"valve_delay"}, {{"cyl", {}, {}, {"u1", "u2", "u3", "u4"}, {{"delay_open", "0.0013"}, {"delay_close", "0.0002"}}}}});
   } else if (valve == "proportional_5_3" && HasKey("spool_dead_time")) {
-    t.push_back({"spool dead time 8 ms (Pade)", {"valve_delay"}, {{"cyl", {"d1", "d2"}, {}, {}, {{"spool_dead_time", "0.008"}}}}});
+    t.push_back({"spool dead time 8 ms (Pade)", {"valve_delay"}, {{"cyl", dg::DelayLineStates(valve), {}, {}, {{"spool_dead_time", "0.008"}}}}});
   } else if (valve == "proportional_5_3") {
     t.push_back({"spool 4x slower", {"valve_delay"}, {{"cyl", {}, {}, {}, {{"spool_time_constant", "0.0168"}}}}});
   }
   if (valve == "proportional_per_chamber" && HasKey("spool_dead_time")) {
     t.push_back({"valve dead time 8 ms (Pade)", {"valve_delay"},
-                 {{"cyl", {"dP1", "dP2", "dN1", "dN2"}, {}, {}, {{"spool_dead_time", "0.008"}}}}});
+                 {{"cyl", dg::DelayLineStates(valve), {}, {}, {{"spool_dead_time", "0.008"}}}}});
   }
   {
     // a field bus' latency: every command reaches the valves 8 ms late, an exact dead time (4 ticks
@@ -187,10 +187,9 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
     dg::ModelEdit line{"cyl", {"LP", "LN"}, {}, {}, {{"line_volume", num(0.5 * rig.mid_volume)}, {"line_conductance", num(1.5 * rig.valve_conductance)}}};
     t.push_back({"tube of half the mid-stroke volume behind a restriction", {"line_dynamics"}, {line}});
     if (valve != "onoff" && HasKey("line_delay")) {
-      // the same tube with a 1 m tube's transport delay, L/c = 1 m / 343 m/s (the candidate has none)
+      // the same tube with a 1 m tube's transport delay, L/c = 1 m / 343 m/s (line_dynamics' richer form)
       line.keys.push_back({"line_delay", "0.003"});
-      const std::vector<std::string> delay_states =
-          valve == "proportional_5_3" ? std::vector<std::string>{"d1", "d2"} : std::vector<std::string>{"dP1", "dP2", "dN1", "dN2"};
+      const std::vector<std::string> delay_states = dg::DelayLineStates(valve);
       line.state_actuators.insert(line.state_actuators.end(), delay_states.begin(), delay_states.end());
       t.push_back({"the same tube with a 3 ms transport delay", {"line_dynamics"}, {line}});
     }

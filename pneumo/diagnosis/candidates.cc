@@ -64,7 +64,28 @@ std::string Replace(const std::string& text, size_t at, size_t length, const std
   return text.substr(0, at) + with + text.substr(at + length);
 }
 
+// Adds to `edit` what gives the cylinder its command delay line (DelayLineStates) with `key`
+// (spool_dead_time or line_delay) at `initial` seconds, unless the model has the line already: its
+// delay spool_dead_time + line_delay is not 0. The valve must be a proportional one.
+void AddDelayLine(const mjModel* m, const std::string& cylinder, const std::string& key, const std::string& initial,
+                  ModelEdit* edit) {
+  if (Parameter(m, cylinder, "spool_dead_time", 0) + Parameter(m, cylinder, "line_delay", 0) != 0) return;
+  const std::vector<std::string> states = DelayLineStates(Choice(m, cylinder, "valve"));
+  edit->state_actuators.insert(edit->state_actuators.end(), states.begin(), states.end());
+  edit->keys.push_back({key, initial});
+}
+
+bool ProportionalValve(const mjModel* m, const std::string& cylinder) {
+  return !DelayLineStates(Choice(m, cylinder, "valve")).empty();
+}
+
 }  // namespace
+
+std::vector<std::string> DelayLineStates(const std::string& valve) {
+  if (valve == "proportional_5_3") return {"d1", "d2"};
+  if (valve == "proportional_per_chamber") return {"dP1", "dP2", "dN1", "dN2"};
+  return {};
+}
 
 std::string RefreshMassConstants(mjModel* m) {
   mjData* d = mj_makeData(m);
@@ -220,14 +241,10 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
   // first form. A refinement (candidates.h): a lag alone is its limit of a vanishing dead time
   per_cylinder("valve_delay", "a valve dead time (Pade delay line) before a first-order lag", [&](const CylinderSeries& cyl, Candidate* c) {
     const std::string& n = cyl.info.name;
-    const std::string valve = Choice(m, n, "valve");
-    if (valve != "proportional_5_3" && valve != "proportional_per_chamber") return;
-    const bool per_chamber = valve == "proportional_per_chamber";
+    if (!ProportionalValve(m, n)) return;
+    const bool per_chamber = Choice(m, n, "valve") == "proportional_per_chamber";
     ModelEdit edit{n, {}, {}, {}, {}};
-    if (Parameter(m, n, "spool_dead_time", 0) + Parameter(m, n, "line_delay", 0) == 0) {
-      edit.state_actuators = per_chamber ? std::vector<std::string>{"dP1", "dP2", "dN1", "dN2"} : std::vector<std::string>{"d1", "d2"};
-      edit.keys.push_back({"spool_dead_time", "0.002"});
-    }
+    AddDelayLine(m, n, "spool_dead_time", "0.002", &edit);
     const double tau = Parameter(m, n, "spool_time_constant", 0);
     if (per_chamber && tau == 0) {
       edit.stateful_commands = {"uP", "uN"};
@@ -346,50 +363,41 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
       out.push_back(std::move(c));
     }
   }
-  // line_dynamics: tube volume and its restriction between valve and chamber
-  {
-    per_cylinder("line_dynamics", "tube volume between valve and chamber with its restriction (both chambers alike)",
-                 [&](const CylinderSeries& cyl, Candidate* c) {
-                   const std::string& n = cyl.info.name;
-                   const double v0 = Parameter(m, n, "P.dead_volume", 1e-6);
-                   if (Parameter(m, n, "P.line_volume", 0) == 0) {
-                     c->edits.push_back({n, {"LP", "LN"}, {}, {}, {{"line_volume", Number(v0)}, {"line_conductance", "1e-8"}}});
-                   }
-                   // bounds: a line of 0.1 to 100 dead volumes; a restriction from 1e-10 kg/(s Pa) (a
-                   // hair-thin tube) to 1e-7 (an orifice of about 9 mm): wider restrictions make the line
-                   // stiff beyond what a diagnosis can afford to simulate, and act as no restriction at all
-                   c->parameters.push_back(KeyParameter(n, "line_volume", v0, 0.1 * v0, 100 * v0, v0, true));
-                   c->parameters.push_back(KeyParameter(n, "line_conductance", 1e-8, 1e-10, 1e-7, 1e-8, true));
-                 });
-    // line_dynamics, second form: the same tube with its transport delay L/c (effects.md: "extra volume
-    // and transport delay"; about 3 ms per metre), through line_delay's Pade delay line (proportional
-    // valves: plugin/src/config.cc). A refinement (candidates.h): the first form is its limit of a
-    // vanishing delay. The delay on a linear scale, not scanned: the scan keeps its 4 x 4 grid
-    per_cylinder("line_dynamics", "tube volume, restriction and transport delay between valve and chamber (both chambers alike)",
-                 [&](const CylinderSeries& cyl, Candidate* c) {
-                   const std::string& n = cyl.info.name;
-                   const std::string valve = Choice(m, n, "valve");
-                   if (valve != "proportional_5_3" && valve != "proportional_per_chamber") return;
-                   const double v0 = Parameter(m, n, "P.dead_volume", 1e-6);
-                   ModelEdit edit{n, {}, {}, {}, {}};
-                   if (Parameter(m, n, "P.line_volume", 0) == 0) {
-                     edit.state_actuators = {"LP", "LN"};
-                     edit.keys = {{"line_volume", Number(v0)}, {"line_conductance", "1e-8"}};
-                   }
-                   if (Parameter(m, n, "spool_dead_time", 0) + Parameter(m, n, "line_delay", 0) == 0) {
-                     const std::vector<std::string> delay = valve == "proportional_per_chamber"
-                                                                ? std::vector<std::string>{"dP1", "dP2", "dN1", "dN2"}
-                                                                : std::vector<std::string>{"d1", "d2"};
-                     edit.state_actuators.insert(edit.state_actuators.end(), delay.begin(), delay.end());
-                     edit.keys.push_back({"line_delay", "0.001"});
-                   }
-                   if (!edit.state_actuators.empty()) c->edits.push_back(edit);
-                   const double delay = Parameter(m, n, "line_delay", 0);
-                   c->parameters.push_back(KeyParameter(n, "line_volume", v0, 0.1 * v0, 100 * v0, v0, true));
-                   c->parameters.push_back(KeyParameter(n, "line_conductance", 1e-8, 1e-10, 1e-7, 1e-8, true));
-                   c->parameters.push_back(KeyParameter(n, "line_delay", delay > 0 ? delay : 0.001, 1e-4, 0.02, 1e-3));
-                 }, true);
-  }
+  // line_dynamics: tube volume and its restriction between valve and chamber, both chambers alike
+  auto add_line = [&](const std::string& n, ModelEdit* edit, Candidate* c) {
+    const double v0 = Parameter(m, n, "P.dead_volume", 1e-6);
+    if (Parameter(m, n, "P.line_volume", 0) == 0) {
+      edit->state_actuators.insert(edit->state_actuators.end(), {"LP", "LN"});
+      edit->keys.push_back({"line_volume", Number(v0)});
+      edit->keys.push_back({"line_conductance", "1e-8"});
+    }
+    // bounds: a line of 0.1 to 100 dead volumes; a restriction from 1e-10 kg/(s Pa) (a hair-thin
+    // tube) to 1e-7 (an orifice of about 9 mm): wider restrictions make the line stiff beyond what a
+    // diagnosis can afford to simulate, and act as no restriction at all
+    c->parameters.push_back(KeyParameter(n, "line_volume", v0, 0.1 * v0, 100 * v0, v0, true));
+    c->parameters.push_back(KeyParameter(n, "line_conductance", 1e-8, 1e-10, 1e-7, 1e-8, true));
+  };
+  per_cylinder("line_dynamics", "tube volume between valve and chamber with its restriction (both chambers alike)",
+               [&](const CylinderSeries& cyl, Candidate* c) {
+    ModelEdit edit{cyl.info.name, {}, {}, {}, {}};
+    add_line(cyl.info.name, &edit, c);
+    if (!edit.state_actuators.empty()) c->edits.push_back(edit);
+  });
+  // line_dynamics, second form: the same tube with its transport delay L/c (effects.md: "extra volume
+  // and transport delay"; about 3 ms per metre), through line_delay's Pade delay line (proportional
+  // valves: plugin/src/config.cc). A refinement (candidates.h): the first form is its limit of a
+  // vanishing delay. The delay on a linear scale, not scanned: the scan keeps its 4 x 4 grid
+  per_cylinder("line_dynamics", "tube volume, restriction and transport delay between valve and chamber (both chambers alike)",
+               [&](const CylinderSeries& cyl, Candidate* c) {
+    const std::string& n = cyl.info.name;
+    if (!ProportionalValve(m, n)) return;
+    ModelEdit edit{n, {}, {}, {}, {}};
+    add_line(n, &edit, c);
+    AddDelayLine(m, n, "line_delay", "0.001", &edit);
+    if (!edit.state_actuators.empty()) c->edits.push_back(edit);
+    const double delay = Parameter(m, n, "line_delay", 0);
+    c->parameters.push_back(KeyParameter(n, "line_delay", delay > 0 ? delay : 0.001, 1e-4, 0.02, 1e-3));
+  }, true);
   // payload: a moving mass different from the model's, on the body the cylinder's joint moves. Fitted
   // as the body's mass on a log scale: a payload may be several times the body's own mass, which a
   // linear step from the nominal mass would crawl towards

@@ -42,6 +42,12 @@ struct ModelEdit {
   std::vector<std::pair<std::string, std::string>> reservoir_keys = {};
 };
 
+// The state actuators (suffixes) of a cylinder's command delay line, which spool_dead_time and
+// line_delay share (plugin/src/valves.h, ValveSignal: a (1,2) Pade approximant, two states per
+// command channel): "d1", "d2" for valve=proportional_5_3; "dP1", "dP2", "dN1", "dN2" for
+// proportional_per_chamber; none for any other valve, which has no delay line.
+std::vector<std::string> DelayLineStates(const std::string& valve);
+
 // Loads the MJCF at `path` with `edits` applied to its text (through a virtual file beside it, so
 // its includes and assets resolve as before) and attaches it. Null and *error on failure.
 ModelPtr LoadEditedModel(const std::string& path, const std::vector<ModelEdit>& edits, std::string* error);
