@@ -61,8 +61,12 @@ struct EffectParameter {
   // fitted as z = ln(value / scale) (lower > 0): for magnitudes known only to a decade or two
   // (conductances, volumes), where a linear step either crawls or overshoots
   bool logarithmic = false;
+  // > 0 (a linear parameter): before the fit, tried at lower, lower + scan_step, ... up to upper
+  // (FitOptions: the grid scan), for a cost with local minima about that far apart, which a
+  // Levenberg-Marquardt start outside the true one's basin cannot leave
+  double scan_step = 0;
   // sets the value on a model (with the candidate's edits) and the sensor model: "" or why not
-  std::function<std::string(mjModel*, SensorModel*, double)> apply;
+  std::function<std::string(mjModel*, SignalModel*, double)> apply;
 };
 
 struct Candidate {

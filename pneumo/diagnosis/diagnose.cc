@@ -41,7 +41,7 @@ double SideGap(const Prediction& p, const Measurements& meas, const std::vector<
   return n ? std::sqrt(sum / n) : kNotComputed;
 }
 
-Assessment Assess(const mjModel* m, const SensorModel& sensors, const Measurements& meas, const GapOptions& g,
+Assessment Assess(const mjModel* m, const SignalModel& sensors, const Measurements& meas, const GapOptions& g,
                   const Regimes& regimes) {
   Assessment a;
   a.full = Evaluate(m, sensors, meas, g);
@@ -138,7 +138,7 @@ std::vector<std::string> EffectsOf(const std::vector<FoundEffect>& found) {
 // the prediction of `meas` by the scenario's model, or an Evaluated with only `error` set
 Evaluated EvaluateScenario(const std::string& model_path, const Scenario& scenario, const Measurements& meas,
                            const GapOptions& gap) {
-  SensorModel sensors;
+  SignalModel sensors;
   Evaluated ev;
   ModelPtr m = BuildScenario(model_path, scenario, meas, &sensors, &ev.error);
   return m ? Evaluate(m.get(), sensors, meas, gap) : ev;
@@ -252,7 +252,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
   out.signal_scale = train_gap.signal_scale;
   out.regimes = ClassifyRegimes(m, *held);
 
-  SensorModel sensors = SensorModel::Identity(*held);
+  SignalModel sensors = SignalModel::Identity(*held);
   out.before = Assess(m, sensors, *held, held_gap, out.regimes);
   if (!out.before.full.error.empty()) {
     out.error = "the model cannot predict the held-out log: " + out.before.full.error;
@@ -306,7 +306,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     r.heldout_gap_before = base_held.gap;
     r.effective_samples = EffectiveSamples(base_held, *held, held_gap);
     const double rss0 = base_held.residuals.squaredNorm();
-    SensorModel base_sensors;
+    SignalModel base_sensors;
     ModelPtr base_model = BuildScenario(model_path, scenario, *train, &base_sensors, &error);
     if (!base_model) {
       out.error = error;
@@ -439,7 +439,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
   }
   out.effects = EffectsOf(found_effects);
   for (const FoundEffect& f : found_effects) out.parameters.insert(out.parameters.end(), f.parameters.begin(), f.parameters.end());
-  SensorModel final_sensors;
+  SignalModel final_sensors;
   ModelPtr final_model = BuildScenario(model_path, ScenarioOf(found_effects, -1), *held, &final_sensors, &error);
   if (!final_model) {
     out.error = error;

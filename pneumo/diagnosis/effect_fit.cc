@@ -14,7 +14,7 @@ namespace pneumatic::diagnosis {
 namespace {
 
 // Applies `values` (one per parameter of c) on top of the scenario's own values.
-std::string ApplyValues(const Candidate& c, const std::vector<double>& values, mjModel* m, SensorModel* sensors) {
+std::string ApplyValues(const Candidate& c, const std::vector<double>& values, mjModel* m, SignalModel* sensors) {
   for (size_t i = 0; i < c.parameters.size(); ++i) {
     if (std::string e = c.parameters[i].apply(m, sensors, values[i]); !e.empty()) return c.parameters[i].name + ": " + e;
   }
@@ -30,7 +30,7 @@ double ToVariable(const EffectParameter& p, double value) { return p.logarithmic
 // once it accepts it, residuals and Jacobian at the same point.
 class EffectCost : public ceres::CostFunction {
  public:
-  EffectCost(const mjModel* base, const SensorModel& sensors, const Candidate& c, const Measurements& meas,
+  EffectCost(const mjModel* base, const SignalModel& sensors, const Candidate& c, const Measurements& meas,
              const FitOptions& options, int residuals)
       : base_(base), sensors_(sensors), c_(c), meas_(meas), options_(options),
         scratch_(mj_copyModel(nullptr, base), mj_deleteModel) {
@@ -42,7 +42,7 @@ class EffectCost : public ceres::CostFunction {
   std::string Residuals(const std::vector<double>& values, Eigen::VectorXd* r) const {
     ++evaluations_;
     mj_copyModel(scratch_.get(), base_);
-    SensorModel sensors = sensors_;
+    SignalModel sensors = sensors_;
     if (std::string e = ApplyValues(c_, values, scratch_.get(), &sensors); !e.empty()) return e;
     Evaluated ev = diagnosis::Evaluate(scratch_.get(), sensors, meas_, options_.gap);
     if (!ev.error.empty()) return ev.error;
@@ -89,7 +89,7 @@ class EffectCost : public ceres::CostFunction {
 
  private:
   const mjModel* base_;
-  SensorModel sensors_;
+  SignalModel sensors_;
   const Candidate& c_;
   const Measurements& meas_;
   const FitOptions& options_;
@@ -105,10 +105,10 @@ class EffectCost : public ceres::CostFunction {
 // one kind (one unit, such as a candidate's three leak areas) move together; kinds are scanned on
 // a grid of `grid_points` per kind (a tank's volume and its line's conductance: 4 x 4), since a
 // volume says nothing about the conductance it goes with. The others are held. Returns the start
-// for the fit: the best point, or the initial values where no point improves the sum of squares; a
-// point the model refuses counts as no better.
+// for the fit: the best point, or the initial values where no point improves the sum of squares
+// *initial_ss (updated to the best point's); a point the model refuses counts as no better.
 std::vector<double> ScanLogarithmic(const EffectCost& cost, const Candidate& c, const std::vector<double>& initial,
-                                    double initial_ss, int points, int grid_points) {
+                                    double* initial_ss, int points, int grid_points) {
   std::vector<std::string> kinds;       // the units of the logarithmic parameters, in order
   std::vector<int> kind_of(c.parameters.size(), -1);
   for (size_t i = 0; i < c.parameters.size(); ++i) {
@@ -121,7 +121,7 @@ std::vector<double> ScanLogarithmic(const EffectCost& cost, const Candidate& c, 
   if (kinds.size() > 1) points = grid_points;
   if (points <= 0) return initial;
   std::vector<double> best = initial;
-  double best_ss = initial_ss;
+  double& best_ss = *initial_ss;
   int grid = 1;
   for (size_t k = 0; k < kinds.size(); ++k) grid *= points;
   for (int g = 0; g < grid; ++g) {
@@ -137,6 +137,27 @@ std::vector<double> ScanLogarithmic(const EffectCost& cost, const Candidate& c, 
     Eigen::VectorXd r;
     if (!cost.Residuals(trial, &r).empty()) continue;
     if (const double ss = r.squaredNorm(); ss < best_ss) best_ss = ss, best = trial;
+  }
+  return best;
+}
+
+// The grid scan of EffectParameter::scan_step: the parameters that have one at the same offset
+// from their lower bounds, in steps of the first one's scan_step up to its upper bound; the others
+// held. Returns the best point, or `start` where none improves on *start_ss (updated).
+std::vector<double> ScanGrid(const EffectCost& cost, const Candidate& c, const std::vector<double>& start, double* start_ss) {
+  std::vector<size_t> scanned;
+  for (size_t i = 0; i < c.parameters.size(); ++i) {
+    if (c.parameters[i].scan_step > 0) scanned.push_back(i);
+  }
+  if (scanned.empty()) return start;
+  const EffectParameter& first = c.parameters[scanned[0]];
+  std::vector<double> best = start;
+  for (int j = 0; first.lower + j * first.scan_step <= first.upper; ++j) {
+    std::vector<double> trial = start;
+    for (size_t i : scanned) trial[i] = std::min(c.parameters[i].lower + j * first.scan_step, c.parameters[i].upper);
+    Eigen::VectorXd r;
+    if (!cost.Residuals(trial, &r).empty()) continue;
+    if (const double ss = r.squaredNorm(); ss < *start_ss) *start_ss = ss, best = trial;
   }
   return best;
 }
@@ -179,11 +200,11 @@ std::vector<double> SignalScales(const Measurements& meas) {
   return scales;
 }
 
-ModelPtr BuildScenario(const std::string& model_path, const Scenario& s, const Measurements& meas, SensorModel* sensors,
+ModelPtr BuildScenario(const std::string& model_path, const Scenario& s, const Measurements& meas, SignalModel* sensors,
                        std::string* error) {
   ModelPtr m = LoadEditedModel(model_path, s.edits, error);
   if (!m) return m;
-  *sensors = SensorModel::Identity(meas);
+  *sensors = SignalModel::Identity(meas);
   for (const auto& [apply, value] : s.values) {
     if (std::string e = apply(m.get(), sensors, value); !e.empty()) {
       *error = e;
@@ -200,7 +221,7 @@ Scenario WithCandidate(const Scenario& base, const Candidate& c, const std::vect
   return s;
 }
 
-Evaluated Evaluate(const mjModel* m, const SensorModel& sensors, const Measurements& meas, const GapOptions& options) {
+Evaluated Evaluate(const mjModel* m, const SignalModel& sensors, const Measurements& meas, const GapOptions& options) {
   Evaluated ev;
   ev.prediction = Predict(m, meas, sensors, options.windows, PredictionKind::kFull, options.threads);
   if (!ev.prediction.error.empty()) {
@@ -247,7 +268,7 @@ CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, c
   }();
   (void)quiet_glog;
   CandidateFit fit;
-  SensorModel sensors;
+  SignalModel sensors;
   Scenario with_edits = base;
   with_edits.edits.insert(with_edits.edits.end(), c.edits.begin(), c.edits.end());
   ModelPtr m = BuildScenario(model_path, with_edits, meas, &sensors, &fit.error);
@@ -258,7 +279,7 @@ CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, c
   // the residual count: the rows the initial model predicts
   {
     ModelPtr copy(mj_copyModel(nullptr, m.get()), mj_deleteModel);
-    SensorModel s = sensors;
+    SignalModel s = sensors;
     if (std::string e = ApplyValues(c, initial, copy.get(), &s); !e.empty()) {
       fit.error = "the initial values: " + e;
       return fit;
@@ -274,7 +295,9 @@ CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, c
       return fit;
     }
     auto* cost = new EffectCost(m.get(), sensors, c, meas, options, static_cast<int>(ev.residuals.size()));
-    std::vector<double> start = ScanLogarithmic(*cost, c, initial, ev.residuals.squaredNorm(), options.scan_points, options.scan_grid_points);
+    double start_ss = ev.residuals.squaredNorm();
+    std::vector<double> start = ScanLogarithmic(*cost, c, initial, &start_ss, options.scan_points, options.scan_grid_points);
+    if (options.scan_points > 0) start = ScanGrid(*cost, c, start, &start_ss);
     std::vector<double> z(k);
     for (size_t i = 0; i < k; ++i) z[i] = ToVariable(c.parameters[i], start[i]);
     ceres::Problem problem;
@@ -326,7 +349,7 @@ CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, c
     // the gap (a mean over signals of per-signal means, not the plain RMS of r)
     {
       ModelPtr at(mj_copyModel(nullptr, m.get()), mj_deleteModel);
-      SensorModel s2 = sensors;
+      SignalModel s2 = sensors;
       ApplyValues(c, fit.values, at.get(), &s2);
       fit.train_gap_after = Evaluate(at.get(), s2, meas, options.gap).gap;
     }

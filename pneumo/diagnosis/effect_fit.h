@@ -30,11 +30,11 @@ namespace pneumatic::diagnosis {
 struct Scenario {
   std::vector<ModelEdit> edits;  // MJCF edits of every effect added so far
   // (apply, value) of every fitted parameter added so far, applied in order
-  std::vector<std::pair<std::function<std::string(mjModel*, SensorModel*, double)>, double>> values;
+  std::vector<std::pair<std::function<std::string(mjModel*, SignalModel*, double)>, double>> values;
 };
 
 // The scenario's model and sensor model; null model and *error on failure.
-ModelPtr BuildScenario(const std::string& model_path, const Scenario& s, const Measurements& meas, SensorModel* sensors,
+ModelPtr BuildScenario(const std::string& model_path, const Scenario& s, const Measurements& meas, SignalModel* sensors,
                        std::string* error);
 
 struct GapOptions {
@@ -56,7 +56,7 @@ struct Evaluated {
   std::string error;
 };
 
-Evaluated Evaluate(const mjModel* m, const SensorModel& sensors, const Measurements& meas, const GapOptions& options);
+Evaluated Evaluate(const mjModel* m, const SignalModel& sensors, const Measurements& meas, const GapOptions& options);
 
 struct CandidateFit {
   std::vector<double> values, standard_errors;  // per parameter, in its unit
@@ -79,7 +79,8 @@ struct FitOptions {
   // two, so their initial values may be decades off) are scanned at points spread evenly over
   // their ranges on their log scales, and the fit starts from the best point: those of one unit
   // together, at scan_points; parameters of different units (a volume and a conductance) on a
-  // grid of scan_grid_points per unit. 0: no scan
+  // grid of scan_grid_points per unit. Then the grid scan: the parameters with a scan_step
+  // (EffectParameter) together on the first one's grid. 0: neither scan
   int scan_points = 6;
   int scan_grid_points = 4;
   std::function<void(const std::string&)> progress;

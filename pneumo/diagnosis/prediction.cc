@@ -18,14 +18,14 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 // the true value behind a measurement, through the inverse of the sensor model
-double TrueValue(const Measurements& meas, const SensorModel& sensors, int signal, int row) {
+double TrueValue(const Measurements& meas, const SignalModel& sensors, int signal, int row) {
   return sensors.Truth(signal, meas.Signal(signal)[row]);
 }
 
 class WindowRunner {
  public:
-  WindowRunner(const mjModel* m, const Measurements& meas, const SensorModel& sensors, PredictionKind kind)
-      : m_(m), meas_(meas), sensors_(sensors), kind_(kind), d_(mj_makeData(m), mj_deleteData) {
+  WindowRunner(const mjModel* m, const Measurements& meas, const SignalModel& signals, PredictionKind kind)
+      : m_(m), meas_(meas), signals_(signals), kind_(kind), d_(mj_makeData(m), mj_deleteData) {
     for (const CylinderSeries& cyl : meas_.cylinders) {
       std::array<int, 2> act = {-1, -1};  // "<cylinder>.LP", ".LN": act = p_line - p_atm (plugin/README.md)
       for (int k : {0, 1}) {
@@ -54,8 +54,8 @@ class WindowRunner {
     }
     SetMeasuredState(start);
     for (int row = start; row < start + w.horizon_rows; ++row) {
-      SetCommands(row);
       for (int k = 0; k < meas_.steps_per_row; ++k) {
+        SetCommands(row, k);
         if (kind_ == PredictionKind::kMechanical) HoldMeasuredPressures(row, static_cast<double>(k) / meas_.steps_per_row);
         if (kind_ == PredictionKind::kPneumatic) {
           FollowMeasuredMotion(row, k);
@@ -94,8 +94,10 @@ class WindowRunner {
   // row's commands, the row's steps
   void StepMeasuredRow(int row) {
     SetMeasuredState(row);
-    SetCommands(row);
-    for (int k = 0; k < meas_.steps_per_row; ++k) mj_step(m_, d_.get());
+    for (int k = 0; k < meas_.steps_per_row; ++k) {
+      SetCommands(row, k);
+      mj_step(m_, d_.get());
+    }
   }
 
   // A line's pressure (line_volume > 0), which no sensor gives, starts at its chamber's measured
@@ -110,14 +112,32 @@ class WindowRunner {
       const int base = kSignalsPerCylinder * static_cast<int>(c);
       for (int k : {0, 1}) {
         const int act = line_act_[c][k];
-        if (act >= 0) d_->act[act] = TrueValue(meas_, sensors_, base + (k == 0 ? kPressureP : kPressureN), row) - meas_.cylinders[c].info.p_atm;
+        if (act >= 0) d_->act[act] = TrueValue(meas_, signals_, base + (k == 0 ? kPressureP : kPressureN), row) - meas_.cylinders[c].info.p_atm;
       }
     }
   }
 
-  void SetCommands(int row) {
-    for (const CylinderSeries& cyl : meas_.cylinders) {
-      for (size_t k = 0; k < cyl.command_actuators.size(); ++k) d_->ctrl[cyl.command_actuators[k]] = cyl.commands[k][row];
+  // the commands of step k of the row as the valves get them (SignalModel): the logged ones, or
+  // with a command delay their mean over the step [a, b], in rows, command_delay earlier, which
+  // meets at most two rows (a step is at most a row); before the log's first row, its commands
+  void SetCommands(int row, int k) {
+    const int rows = meas_.rows();
+    for (size_t c = 0; c < meas_.cylinders.size(); ++c) {
+      const CylinderSeries& cyl = meas_.cylinders[c];
+      const double delay = signals_.command_delay[c];
+      if (delay == 0) {
+        for (size_t j = 0; j < cyl.command_actuators.size(); ++j) d_->ctrl[cyl.command_actuators[j]] = cyl.commands[j][row];
+        continue;
+      }
+      const double step = 1.0 / meas_.steps_per_row;
+      const double a = row + k * step - delay / meas_.period, b = a + step;
+      const double boundary = std::floor(a) + 1;  // the first row boundary after a
+      const double later = std::max(0.0, b - boundary) / step;  // the part of the step in the next row
+      const int first = std::clamp(static_cast<int>(std::floor(a)), 0, rows - 1), next = std::clamp(first + 1, 0, rows - 1);
+      for (size_t j = 0; j < cyl.command_actuators.size(); ++j) {
+        const std::vector<double>& u = cyl.commands[j];
+        d_->ctrl[cyl.command_actuators[j]] = (1 - later) * u[first] + later * u[next];
+      }
     }
   }
 
@@ -133,11 +153,11 @@ class WindowRunner {
     for (size_t c = 0; c < meas_.cylinders.size(); ++c) {
       const CylinderSeries& cyl = meas_.cylinders[c];
       const int base = kSignalsPerCylinder * static_cast<int>(c);
-      SetChamberPressure(m_, d, cyl.info, Chamber::kP, TrueValue(meas_, sensors_, base + kPressureP, row));
-      SetChamberPressure(m_, d, cyl.info, Chamber::kN, TrueValue(meas_, sensors_, base + kPressureN, row));
-      const double x = TrueValue(meas_, sensors_, base + kPosition, row);
+      SetChamberPressure(m_, d, cyl.info, Chamber::kP, TrueValue(meas_, signals_, base + kPressureP, row));
+      SetChamberPressure(m_, d, cyl.info, Chamber::kN, TrueValue(meas_, signals_, base + kPressureN, row));
+      const double x = TrueValue(meas_, signals_, base + kPosition, row);
       d->qpos[m_->jnt_qposadr[cyl.joint]] = (x + cyl.info.x_mid) / cyl.gear;
-      d->qvel[m_->jnt_dofadr[cyl.joint]] = cyl.velocity[row] / sensors_.gain[base + kPosition] / cyl.gear;
+      d->qvel[m_->jnt_dofadr[cyl.joint]] = cyl.velocity[row] / signals_.gain[base + kPosition] / cyl.gear;
     }
   }
 
@@ -148,7 +168,7 @@ class WindowRunner {
       const int base = kSignalsPerCylinder * static_cast<int>(c);
       for (int k : {kPressureP, kPressureN}) {
         const int next = std::min(row + 1, meas_.rows() - 1);
-        const double p = (1 - s) * TrueValue(meas_, sensors_, base + k, row) + s * TrueValue(meas_, sensors_, base + k, next);
+        const double p = (1 - s) * TrueValue(meas_, signals_, base + k, row) + s * TrueValue(meas_, signals_, base + k, next);
         SetChamberPressure(m_, d_.get(), cyl.info, k == kPressureP ? Chamber::kP : Chamber::kN, p);
       }
     }
@@ -163,8 +183,8 @@ class WindowRunner {
     for (size_t c = 0; c < meas_.cylinders.size(); ++c) {
       const CylinderSeries& cyl = meas_.cylinders[c];
       const int base = kSignalsPerCylinder * static_cast<int>(c);
-      const double gain = sensors_.gain[base + kPosition];
-      const double x0 = TrueValue(meas_, sensors_, base + kPosition, row), x1 = TrueValue(meas_, sensors_, base + kPosition, next);
+      const double gain = signals_.gain[base + kPosition];
+      const double x0 = TrueValue(meas_, signals_, base + kPosition, row), x1 = TrueValue(meas_, signals_, base + kPosition, next);
       const double v0 = cyl.velocity[row] / gain, v1 = cyl.velocity[next] / gain;
       const double a = HermitePosition(x0, v0, x1, v1, period, static_cast<double>(k) / meas_.steps_per_row);
       const double b = HermitePosition(x0, v0, x1, v1, period, static_cast<double>(k + 1) / meas_.steps_per_row);
@@ -185,14 +205,14 @@ class WindowRunner {
       for (int k = 0; k < kSignalsPerCylinder; ++k) {
         const bool predicted = kind_ == PredictionKind::kFull || (kind_ == PredictionKind::kPneumatic && k != kPosition) ||
                                (kind_ == PredictionKind::kMechanical && k == kPosition);
-        (*out)[base + k][row] = predicted ? sensors_.Measured(base + k, truth[k]) : kNaN;
+        (*out)[base + k][row] = predicted ? signals_.Measured(base + k, truth[k]) : kNaN;
       }
     }
   }
 
   const mjModel* m_;
   const Measurements& meas_;
-  const SensorModel& sensors_;
+  const SignalModel& signals_;
   PredictionKind kind_;
   std::unique_ptr<mjData, void (*)(mjData*)> d_;
   std::vector<std::array<int, 2>> line_act_;  // per cylinder: the act of chamber P's, N's line, or -1
@@ -200,9 +220,9 @@ class WindowRunner {
 
 }  // namespace
 
-SensorModel SensorModel::Identity(const Measurements& meas) {
-  SensorModel s{std::vector<double>(meas.signals(), 0.0), std::vector<double>(meas.signals(), 1.0),
-                std::vector<double>(meas.signals(), 0.0)};
+SignalModel SignalModel::Identity(const Measurements& meas) {
+  SignalModel s{std::vector<double>(meas.signals(), 0.0), std::vector<double>(meas.signals(), 1.0),
+                std::vector<double>(meas.signals(), 0.0), std::vector<double>(meas.cylinders.size(), 0.0)};
   for (int i = 0; i < meas.signals(); ++i) {
     if (i % kSignalsPerCylinder != kPosition) s.reference[i] = meas.cylinders[i / kSignalsPerCylinder].info.p_atm;
   }
@@ -228,7 +248,7 @@ Windows MakeWindows(int rows, int horizon_rows, int warmup_rows) {
 
 bool EstimatesOverTheHistory(const mjModel* m) { return !Reservoirs(m).empty(); }
 
-Prediction Predict(const mjModel* m, const Measurements& meas, const SensorModel& sensors, const Windows& windows,
+Prediction Predict(const mjModel* m, const Measurements& meas, const SignalModel& sensors, const Windows& windows,
                    PredictionKind kind, int threads) {
   Prediction p;
   p.simulated.assign(meas.signals(), std::vector<double>(meas.rows(), kNaN));

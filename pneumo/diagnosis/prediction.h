@@ -30,13 +30,20 @@
 
 namespace pneumatic::diagnosis {
 
-// What a sensor reports for the true value y: reference + offset + gain (y - reference), per
-// signal (3 per cylinder), the reference being p_atm for a pressure (a gauge sensor's gain acts
-// on the gauge pressure; about 0 Pa offset and gain would be nearly collinear) and 0 for x. The
-// identity unless a sensor_bias candidate changes it (the project's own measurement model).
-struct SensorModel {
+// How the log's signals relate to the model's (the project's own measurement model): the identity
+// unless a candidate changes it.
+//   Sensors (sensor_bias): what a sensor reports for the true value y, reference + offset +
+//   gain (y - reference), per signal (3 per cylinder), the reference being p_atm for a pressure (a
+//   gauge sensor's gain acts on the gauge pressure; about 0 Pa offset and gain would be nearly
+//   collinear) and 0 for x.
+//   Commands (valve_delay's exact dead time): the valves of cylinder c act on the logged commands
+//   command_delay[c] seconds late, held over their rows (zero-order hold) as the controller held
+//   them. Each model step gets the delayed commands' mean over the step, so a prediction is
+//   continuous in the delay (a fit can follow it between steps).
+struct SignalModel {
   std::vector<double> offset, gain, reference;
-  static SensorModel Identity(const Measurements& meas);
+  std::vector<double> command_delay;  // s, per cylinder
+  static SignalModel Identity(const Measurements& meas);
   double Measured(int signal, double truth) const { return reference[signal] + offset[signal] + gain[signal] * (truth - reference[signal]); }
   double Truth(int signal, double measured) const { return reference[signal] + (measured - reference[signal] - offset[signal]) / gain[signal]; }
 };
@@ -70,7 +77,7 @@ bool EstimatesOverTheHistory(const mjModel* m);
 // Predicts `meas` with m (attached) on up to `threads` threads (windows are independent; each
 // thread has its own mjData, and each window writes only its own rows: the result does not depend
 // on the thread count).
-Prediction Predict(const mjModel* m, const Measurements& meas, const SensorModel& sensors, const Windows& windows,
+Prediction Predict(const mjModel* m, const Measurements& meas, const SignalModel& sensors, const Windows& windows,
                    PredictionKind kind, int threads);
 
 }  // namespace pneumatic::diagnosis
