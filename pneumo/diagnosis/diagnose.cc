@@ -331,6 +331,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
       // leads, and stopped short by the screening's cap it would lose to that form by the cap, not
       // by the data
       fo.max_iterations = c.refinement ? std::max(options.max_iterations, options.refit_iterations) : options.max_iterations;
+      if (c.refinement) fo.scan_grid_points = options.refinement_scan_grid_points;
       fo.progress = options.progress;
       CandidateFit fit = FitCandidate(model_path, scenario, c, *train, fo);
       result.evaluations = fit.evaluations;

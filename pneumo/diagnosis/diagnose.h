@@ -15,10 +15,10 @@
 // Raftery, JASA 90, 1995) and it shrinks the held-out gap by at least min_improvement; the best
 // such candidate is the verdict, and the search repeats with it in the model, so that two effects
 // present together are both found. No such candidate: `none`. A richer form of an effect
-// (Candidate::refinement: supply_drop's tank, valve_delay's dead time, line_dynamics' transport
-// delay) is fitted only in a round that the effect's
-// simpler form leads by dIC, with the joint refit's iterations (refit_iterations), and then
-// ranked with the rest.
+// (Candidate::refinement: supply_drop's tank, valve_delay's dead time and exact latency,
+// line_dynamics' transport delay) is fitted only in a round that the effect's
+// simpler form leads by dIC, with the joint refit's iterations (refit_iterations) and a finer scan
+// (refinement_scan_grid_points), and then ranked with the rest.
 // How far: the held-out gap before and after, per signal and as one number (effect_fit.h).
 #ifndef PNEUMATIC_DIAGNOSIS_DIAGNOSE_H_
 #define PNEUMATIC_DIAGNOSIS_DIAGNOSE_H_
@@ -51,6 +51,14 @@ struct DiagnoseOptions {
   // screened in a few iterations may not have converged, and what it leaves unexplained would
   // otherwise be taken up by a spurious effect in the next round
   int refit_iterations = 30;
+  // a richer form's logarithmic parameters of different units are scanned on this many points per
+  // unit (FitOptions::scan_grid_points; the screening's 4). A supply tank's error has a narrow
+  // valley in its line's conductance, which sets the mean sag: on a 100 Hz rig C log of a tank, a
+  // line 1.6 times off the truth's conductance (the 4 x 4 grid's nearest point) gave a gap of 0.37
+  // against 0.014 at the truth. On bench_diagnose's 100 Hz tank the 4 x 4 grid's best point was a
+  // small tank behind an open line, from which the fit stopped at a held-out gap of 0.097 (a heat
+  // transfer took up the rest); from the 6 x 6 grid's, 0.020, the clean log's floor
+  int refinement_scan_grid_points = 6;
   // fit on every fit_window_stride-th window of the training log (1: all; 2: every other window,
   // half the cost, windows still spread over the whole log); the held-out score uses every window
   int fit_window_stride = 2;
