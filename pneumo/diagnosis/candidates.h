@@ -5,8 +5,8 @@
 // form that captures its signature generalises to held-out data better than a rich one.
 //
 // A candidate changes the model in up to three ways: keys of a cylinder's "pneumatic:" text
-// (SetParameter), fields of mjModel (a joint's frictionloss, a body's mass), and the sensor model
-// (offset and gain of one measured signal). Forms with their own states (a gas temperature) also
+// (SetParameter), fields of mjModel (a joint's frictionloss, a body's mass), and the signal model
+// (offset and gain of one measured signal, a delay of the logged commands: prediction.h). Forms with their own states (a gas temperature) also
 // need the state's actuator in the MJCF: the candidate lists it as a ModelEdit, and the model is
 // reloaded from its file with the edit (LoadEditedModel).
 #ifndef PNEUMATIC_DIAGNOSIS_CANDIDATES_H_
@@ -65,7 +65,7 @@ struct EffectParameter {
   // (FitOptions: the grid scan), for a cost with local minima about that far apart, which a
   // Levenberg-Marquardt start outside the true one's basin cannot leave
   double scan_step = 0;
-  // sets the value on a model (with the candidate's edits) and the sensor model: "" or why not
+  // sets the value on a model (with the candidate's edits) and the signal model: "" or why not
   std::function<std::string(mjModel*, SignalModel*, double)> apply;
 };
 

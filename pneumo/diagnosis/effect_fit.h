@@ -26,14 +26,14 @@
 namespace pneumatic::diagnosis {
 
 // A model as a diagnosis builds it: the user's model with effects' edits, fitted values and the
-// sensor model.
+// signal model.
 struct Scenario {
   std::vector<ModelEdit> edits;  // MJCF edits of every effect added so far
   // (apply, value) of every fitted parameter added so far, applied in order
   std::vector<std::pair<std::function<std::string(mjModel*, SignalModel*, double)>, double>> values;
 };
 
-// The scenario's model and sensor model; null model and *error on failure.
+// The scenario's model and signal model; null model and *error on failure.
 ModelPtr BuildScenario(const std::string& model_path, const Scenario& s, const Measurements& meas, SignalModel* sensors,
                        std::string* error);
 

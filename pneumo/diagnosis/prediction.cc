@@ -17,7 +17,7 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// the true value behind a measurement, through the inverse of the sensor model
+// the true value behind a measurement, through the inverse of the signal model's sensors
 double TrueValue(const Measurements& meas, const SignalModel& sensors, int signal, int row) {
   return sensors.Truth(signal, meas.Signal(signal)[row]);
 }

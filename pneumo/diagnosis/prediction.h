@@ -10,7 +10,7 @@
 //               on the mechanics);
 //   mechanical  motion simulated with the chamber pressures held to the measured ones.
 //
-// The state at a window's start: measured p_P, p_N, x (through the inverse of the sensor model),
+// The state at a window's start: measured p_P, p_N, x (through the inverse of the signal model's sensors),
 // the estimated velocity; states no sensor gives (spool, armature, gas temperature, bristle) are
 // estimated by a warm-up: the model runs the rows before the window with its pressures and motion
 // reset to the measured ones at every row, so those states follow the logged commands; a line's
