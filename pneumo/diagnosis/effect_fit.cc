@@ -103,7 +103,7 @@ class EffectCost : public ceres::CostFunction {
 // The coarse scan of FitOptions::scan_points: the logarithmic parameters at `points` positions
 // t = (j + 1/2) / points along their log ranges (value = lower (upper / lower)^t). Parameters of
 // one kind (one unit, such as a candidate's three leak areas) move together; kinds are scanned on
-// a grid of `grid_points` per kind (a tank's volume and its line's conductance: 4 x 4), since a
+// a grid of `grid_points` per kind (a tank's volume and its line's conductance: 6 x 6), since a
 // volume says nothing about the conductance it goes with. The others are held. Returns the start
 // for the fit: the best point, or the initial values where no point improves the sum of squares
 // *initial_ss (updated to the best point's); a point the model refuses counts as no better.
