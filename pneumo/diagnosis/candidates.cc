@@ -330,9 +330,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
     if (Choice(m, n, "thermal_model") == "energy") {
       conductance = Parameter(m, n, "P.wall_heat_conductance", conductance);  // refit the model's own
     } else {
-      char text[32];
-      std::snprintf(text, sizeof(text), "%.6g", conductance);
-      c->edits.push_back({n, {"TP", "TN"}, {}, {}, {{"thermal_model", "energy"}, {"wall_heat_conductance", text}}});
+      c->edits.push_back({n, {"TP", "TN"}, {}, {}, {{"thermal_model", "energy"}, {"wall_heat_conductance", Number(conductance)}}});
     }
     c->parameters.push_back(KeyParameter(n, "wall_heat_conductance", conductance, 1e-3 * conductance, 1e3 * conductance, conductance, true));
   });
@@ -408,7 +406,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
   // line_dynamics, second form: the same tube with its transport delay L/c (effects.md: "extra volume
   // and transport delay"; about 3 ms per metre), through line_delay's Pade delay line (proportional
   // valves: plugin/src/config.cc). A refinement (candidates.h): the first form is its limit of a
-  // vanishing delay. The delay on a linear scale, not scanned: the scan keeps its 4 x 4 grid
+  // vanishing delay. The delay on a linear scale, not scanned: the scan keeps its grid of two kinds
   per_cylinder("line_dynamics", "tube volume, restriction and transport delay between valve and chamber (both chambers alike)",
                [&](const CylinderSeries& cyl, Candidate* c) {
     const std::string& n = cyl.info.name;
