@@ -24,8 +24,9 @@
 //   sensor_bias    offset and gain of the logged p_P                 -> offset and gain of one signal
 // Prints one line per case, the confusion matrix (true effect vs verdict) and the median held-out
 // shrink of the cases with an effect. Usage: bench_diagnose [--quick] [--rig A|B|C] [--case TEXT] [--duration S]
-// [--rate HZ] [--verbose] (--case: only the truths whose label contains TEXT; --rate: the controller's and the
-// log's rate, 500 Hz by default; --verbose: the diagnosis' progress on stderr)
+// [--rate HZ] [--reference multisine|steps] [--verbose] (--case: only the truths whose label contains TEXT; --rate:
+// the controller's and the log's rate, 500 Hz by default; --reference steps: step changes of the reference instead of
+// the multi-sine; --verbose: the diagnosis' progress on stderr)
 // bench_diagnose --speed: the wall time of diagnosing one 20 s log of rig C (a laminar leak, the
 // documented default split: 70 % train, 30 % held out) logged at 500 Hz and at 1 kHz, on 2 threads.
 #include <algorithm>
@@ -72,8 +73,28 @@ struct Truth {
   double command_delay = 0;          // s: the valves get the logged commands this late (whole ticks)
 };
 
-// a multi-sine reference (4 components, 0.2-1.2 Hz, random phases) at 60 % of the half stroke
-pneumatic::log::Log Reference(const Rig& rig, std::uint64_t seed, double duration) {
+// the reference the PID follows: a multi-sine (4 components, 0.2-1.2 Hz, random phases) at 60 % of
+// the half stroke; or, with --reference steps, steps to random levels within 60 % of the half stroke,
+// each held 1 to 2 s (after 1 s at mid-stroke), which saturate the valves at every step
+enum class ReferenceShape { kMultiSine, kSteps };
+
+pneumatic::log::Log StepReference(const Rig& rig, std::uint64_t seed, double duration) {
+  std::mt19937_64 random(seed);
+  std::uniform_real_distribution<double> hold(1, 2), level(-1, 1);
+  pneumatic::log::Log ref;
+  ref.columns = {{"cyl", "ref"}};
+  ref.values.assign(1, {});
+  double x = 0, next_step = 1;
+  for (double t = 0; t <= duration + 1e-9; t += 0.01) {
+    if (t >= next_step) x = 0.6 * 0.5 * rig.stroke * level(random), next_step += hold(random);
+    ref.time.push_back(t);
+    ref.values[0].push_back(x);
+  }
+  return ref;
+}
+
+pneumatic::log::Log Reference(const Rig& rig, std::uint64_t seed, double duration, ReferenceShape shape) {
+  if (shape == ReferenceShape::kSteps) return StepReference(rig, seed, duration);
   std::mt19937_64 random(seed);
   std::uniform_real_distribution<double> f(0.2, 1.2), phase(0, 2 * M_PI);
   double fs[4], ph[4];
@@ -92,7 +113,8 @@ pneumatic::log::Log Reference(const Rig& rig, std::uint64_t seed, double duratio
 }
 
 std::optional<pneumatic::log::Log> Simulate(const Rig& rig, const Truth& truth, std::uint64_t seed, double duration,
-                                            std::string* error, double control_rate = 500) {
+                                            std::string* error, double control_rate = 500,
+                                            ReferenceShape shape = ReferenceShape::kMultiSine) {
   dg::ModelPtr m = dg::LoadEditedModel(rig.file, truth.edits, error);
   if (!m) return std::nullopt;
   if (truth.added_mass != 0) {
@@ -105,7 +127,7 @@ std::optional<pneumatic::log::Log> Simulate(const Rig& rig, const Truth& truth, 
       return std::nullopt;
     }
   }
-  pneumatic::log::Log ref = Reference(rig, seed, duration);
+  pneumatic::log::Log ref = Reference(rig, seed, duration, shape);
   pneumatic::ClosedLoopOptions o;
   o.duration = duration;
   o.control_rate = control_rate;
@@ -239,6 +261,7 @@ int main(int argc, char** argv) {
   bool quick = false, speed = false, verbose = false;
   std::string only, only_case;
   double duration = 12, rate = 500;
+  ReferenceShape shape = ReferenceShape::kMultiSine;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
     else if (!std::strcmp(argv[i], "--speed")) speed = true;
@@ -247,6 +270,14 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only_case = argv[++i];
     else if (!std::strcmp(argv[i], "--duration") && i + 1 < argc) duration = std::atof(argv[++i]);
     else if (!std::strcmp(argv[i], "--rate") && i + 1 < argc) rate = std::atof(argv[++i]);
+    else if (!std::strcmp(argv[i], "--reference") && i + 1 < argc) {
+      const std::string name = argv[++i];
+      if (name != "multisine" && name != "steps") {
+        std::fprintf(stderr, "--reference: expected multisine or steps, got '%s'\n", name.c_str());
+        return 2;
+      }
+      shape = name == "steps" ? ReferenceShape::kSteps : ReferenceShape::kMultiSine;
+    }
   }
   pneumatic::benchmarks::PrintMachine(PNEUMATIC_BUILD_TYPE);
   const std::string dir = PNEUMATIC_MODELS_DIR;
@@ -294,8 +325,8 @@ int main(int argc, char** argv) {
     for (const Truth& truth : truths) {
       if (!only_case.empty() && truth.label.find(only_case) == std::string::npos) continue;
       const auto t0 = std::chrono::steady_clock::now();
-      std::optional<pneumatic::log::Log> train = Simulate(rig, truth, 1, duration, &error, rate);
-      std::optional<pneumatic::log::Log> held = train ? Simulate(rig, truth, 2, duration, &error, rate) : std::nullopt;
+      std::optional<pneumatic::log::Log> train = Simulate(rig, truth, 1, duration, &error, rate, shape);
+      std::optional<pneumatic::log::Log> held = train ? Simulate(rig, truth, 2, duration, &error, rate, shape) : std::nullopt;
       if (!held) {
         std::printf("rig %s %-60s simulation failed: %s\n", rig.name.c_str(), truth.label.c_str(), error.c_str());
         continue;

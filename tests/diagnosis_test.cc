@@ -19,6 +19,7 @@
 namespace pneumatic::diagnosis {
 namespace {
 
+const std::string kRigA = std::string(PNEUMATIC_MODELS_DIR) + "/rig_onoff.xml";
 const std::string kRigC = std::string(PNEUMATIC_MODELS_DIR) + "/rig_per_chamber.xml";
 
 // a value as MJCF text, to full precision (std::to_string's %f would write 2.9e-9 as 0.000000)
@@ -28,12 +29,12 @@ std::string Number(double value) {
   return text;
 }
 
-// a closed-loop rig C log (with `edits` in the rig: its truth): PID at 500 Hz (or control_rate) on a two-sine
-// reference, 500 Pa / 0.05 mm sensor noise; the logged p_P passed through offset and gain (a biased sensor)
-log::Log RigCLog(std::uint64_t seed, double duration, double p_offset, double p_gain, const std::vector<ModelEdit>& edits = {},
-                 double control_rate = 500, int command_delay_ticks = 0) {
+// a closed-loop log of a rig (with `edits` in the rig: its truth): PID at control_rate on a two-sine
+// reference, 500 Pa / 0.05 mm sensor noise, the valves getting each command command_delay_ticks late
+log::Log RigLog(const std::string& rig, std::uint64_t seed, double duration, const std::vector<ModelEdit>& edits,
+                double control_rate, int command_delay_ticks) {
   std::string error;
-  ModelPtr m = LoadEditedModel(kRigC, edits, &error);
+  ModelPtr m = LoadEditedModel(rig, edits, &error);
   EXPECT_TRUE(m) << error;
   log::Log ref;
   ref.columns = {{"cyl", "ref"}};
@@ -53,10 +54,18 @@ log::Log RigCLog(std::uint64_t seed, double duration, double p_offset, double p_
   o.command_delay_ticks = command_delay_ticks;
   ClosedLoopResult r = RunClosedLoop(m.get(), o);
   EXPECT_TRUE(r.log) << r.error;
-  const int c = r.log->FindColumn("cyl", "p_P");
-  for (double& p : r.log->values[c]) p = 101325 + p_offset + p_gain * (p - 101325);
-  r.log->source = "rig C seed " + std::to_string(seed);
+  r.log->source = rig + " seed " + std::to_string(seed);
   return *r.log;
+}
+
+// a rig C log (RigLog, PID at 500 Hz by default) with the logged p_P passed through offset and gain (a
+// biased sensor)
+log::Log RigCLog(std::uint64_t seed, double duration, double p_offset, double p_gain, const std::vector<ModelEdit>& edits = {},
+                 double control_rate = 500, int command_delay_ticks = 0) {
+  log::Log log = RigLog(kRigC, seed, duration, edits, control_rate, command_delay_ticks);
+  const int c = log.FindColumn("cyl", "p_P");
+  for (double& p : log.values[c]) p = 101325 + p_offset + p_gain * (p - 101325);
+  return log;
 }
 
 TEST(DiagnosisInput, RefusesWhatItCannotDiagnoseNamingTheProblem) {
@@ -180,12 +189,16 @@ std::optional<Candidate> RicherForm(const mjModel* m, const Measurements& meas, 
 
 // `form` fitted on a 500 Hz rig C log as the diagnosis rounds fit (the default windows: 0.2 s
 // after a 20 ms warm-up), with at most max_iterations of Levenberg-Marquardt
-CandidateFit FitOnRigC(const Candidate& form, const Measurements& meas, int max_iterations) {
+CandidateFit FitOnRig(const std::string& rig, const Candidate& form, const Measurements& meas, int max_iterations) {
   FitOptions o;
   o.gap.signal_scale = SignalScales(meas);
   o.gap.windows = MakeWindows(meas.rows(), 100, 10);
   o.max_iterations = max_iterations;
-  return FitCandidate(kRigC, Scenario{}, form, meas, o);
+  return FitCandidate(rig, Scenario{}, form, meas, o);
+}
+
+CandidateFit FitOnRigC(const Candidate& form, const Measurements& meas, int max_iterations) {
+  return FitOnRig(kRigC, form, meas, max_iterations);
 }
 
 // supply_drop's tank form: its edit adds one reservoir that feeds the cylinder, its two parameters
@@ -412,6 +425,26 @@ TEST(DiagnosisFit, RecoversAnExactCommandDelay) {
   ASSERT_EQ(fit.error, "");
   EXPECT_NEAR(fit.values[0], 0.008, 4 * fit.standard_errors[0]);
   EXPECT_LT(fit.standard_errors[0], 0.05 * 0.008);
+}
+
+// The same form on rig A's on/off valves, which open at a command of 1/2 or more: the delayed command's
+// mean over a step switches a valve at the model step nearest the delayed switch, so the prediction
+// is a staircase in the delay with a 50 us tread (rig A's timestep). An 8 ms latency (4 ticks at
+// 500 Hz), on the scan's grid of half rows, is kept within a tread; the armature delays of the first
+// form lose every pulse shorter than their opening delay and cannot stand in for it.
+TEST(DiagnosisFit, RecoversAnExactCommandDelayOfOnOffValves) {
+  std::string error;
+  ModelPtr clean = LoadEditedModel(kRigA, {}, &error);
+  ASSERT_TRUE(clean) << error;
+  std::optional<Measurements> meas = PrepareMeasurements(clean.get(), RigLog(kRigA, 4, 2.0, {}, 500, 4), 100, &error);
+  ASSERT_TRUE(meas) << error;
+  ASSERT_EQ(meas->steps_per_row, 40) << "2 ms rows of 50 us steps";
+  const std::optional<Candidate> form = RicherForm(clean.get(), *meas, "valve_delay", "exact dead time");
+  ASSERT_TRUE(form);
+  ASSERT_EQ(form->parameters.size(), 1u);
+  CandidateFit fit = FitOnRig(kRigA, *form, *meas, 30);
+  ASSERT_EQ(fit.error, "");
+  EXPECT_NEAR(fit.values[0], 0.008, 5e-5) << "within a tread of the truth";
 }
 
 // End to end: a biased p_P sensor (offset 15 kPa, gain 1.03) is named, its offset and gain are

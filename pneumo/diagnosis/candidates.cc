@@ -263,15 +263,16 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
   }, true);
   // valve_delay, third form: an exact dead time of the commands (a field bus', a valve driver's or a
   // controller's latency): the valves act on the logged commands that much later (SignalModel,
-  // prediction.h), the nominal valve behind it. The project's own form. Proportional valves only:
-  // an on/off valve's command averaged over a step would open it halfway (its delays are the armature
-  // model of the first form). A refinement (candidates.h) as the Pade form is: fitted in the rounds
-  // valve_delay leads. Up to 50 ms, scanned in half rows: the prediction error has a local minimum
-  // wherever the delayed commands line up with the log's own oscillations (on a 500 Hz rig C log of
-  // an 8 ms latency, at 3.5, 5.5, 8 and 11 ms; the true one's basin about a row wide)
+  // prediction.h), the nominal valve behind it. The project's own form, for every valve: an on/off
+  // valve opens at a command of 1/2 or more (plugin/src/valves.cc), so the delayed command's mean over
+  // a step switches it at the model step nearest the delayed switch (rig A: to 50 us), where the
+  // armature delays of the first form lose pulses shorter than their opening delay. A refinement
+  // (candidates.h) as the Pade form is: fitted in the rounds valve_delay leads. Up to 50 ms, scanned
+  // in half rows: the prediction error has a local minimum wherever the delayed commands line up with
+  // the log's own oscillations (on a 500 Hz rig C log of an 8 ms latency, at 3.5, 5.5, 8 and 11 ms;
+  // the true one's basin about a row wide)
   per_cylinder("valve_delay", "an exact dead time of the valve commands (a latency), the nominal valve behind it",
                [&](const CylinderSeries& cyl, Candidate* c) {
-    if (!ProportionalValve(m, cyl.info.name)) return;
     const size_t index = &cyl - meas.cylinders.data();
     EffectParameter p;
     p.name = cyl.info.name + ":command_delay";

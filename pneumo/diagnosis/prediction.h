@@ -38,8 +38,9 @@ namespace pneumatic::diagnosis {
 //   collinear) and 0 for x.
 //   Commands (valve_delay's exact dead time): the valves of cylinder c act on the logged commands
 //   command_delay[c] seconds late, held over their rows (zero-order hold) as the controller held
-//   them. Each model step gets the delayed commands' mean over the step, so a prediction is
-//   continuous in the delay (a fit can follow it between steps).
+//   them. Each model step gets the delayed commands' mean over the step, so a proportional valve's
+//   prediction is continuous in the delay (a fit can follow it between steps); an on/off valve,
+//   open at 1/2 or more, switches at the model step nearest the delayed switch.
 struct SignalModel {
   std::vector<double> offset, gain, reference;
   std::vector<double> command_delay;  // s, per cylinder
