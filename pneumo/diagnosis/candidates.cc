@@ -321,11 +321,12 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
       c->parameters.push_back(KeyParameter(n, key, std::max(Parameter(m, n, key, 0), 1e-9), 1e-12, 1e-5, 1e-9, true));
     }
   });
-  // heat_transfer: the gas temperature as a state with one wall heat conductance for both chambers
-  per_cylinder("heat_transfer", "gas temperature as a state, one wall heat conductance for both chambers",
-               [&](const CylinderSeries& cyl, Candidate* c) {
+  // heat_transfer: the gas temperature as a state (the energy equation of an open chamber with wall
+  // heat, Richer and Hurmuzlu 2000; plugin/README.md "Thermal model") with one wall heat conductance
+  // for both chambers, started from a wall time constant m c_v / (h A) of 1 s for a chamber at
+  // mid-stroke at 3 bar, or from the model's own
+  auto energy_equation = [&](const CylinderSeries& cyl, Candidate* c) {
     const std::string& n = cyl.info.name;
-    // start from a wall time constant m c_v / (h A) of 1 s for a chamber at mid-stroke at 3 bar
     const double volume = Parameter(m, n, "P.dead_volume", 1e-6) + Parameter(m, n, "P.area", 1e-4) * cyl.stroke / 2;
     double conductance = 3e5 * volume / (Parameter(m, n, "temperature", 293) * 0.4) / 1.0;
     if (Choice(m, n, "thermal_model") == "energy") {
@@ -334,7 +335,24 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
       c->edits.push_back({n, {"TP", "TN"}, {}, {}, {{"thermal_model", "energy"}, {"wall_heat_conductance", Number(conductance)}}});
     }
     c->parameters.push_back(KeyParameter(n, "wall_heat_conductance", conductance, 1e-3 * conductance, 1e3 * conductance, conductance, true));
-  });
+  };
+  // first form: the gas temperatures start each window from the warm-up (prediction.h), which
+  // starts them at the wall's
+  per_cylinder("heat_transfer", "gas temperature as a state, one wall heat conductance for both chambers", energy_equation);
+  // second form, a refinement (candidates.h): the same equation with the gas temperatures estimated
+  // over the log's history (SignalModel::history_estimate). A gas temperature relaxes to the wall's
+  // over tenths of a second, longer than a 20 ms warm-up, so the first form starts every window with
+  // the temperature the log's last filling or venting left unaccounted for. The history costs a
+  // simulation of the whole log per evaluation, so only the rounds the first form leads pay it
+  per_cylinder("heat_transfer", "gas temperature as a state, one wall heat conductance, the temperatures estimated over the log's history",
+               [&](const CylinderSeries& cyl, Candidate* c) {
+    energy_equation(cyl, c);
+    std::function<std::string(mjModel*, SignalModel*, double)> set_conductance = c->parameters.back().apply;
+    c->parameters.back().apply = [set_conductance](mjModel* model, SignalModel* signals, double value) {
+      signals->history_estimate = true;
+      return set_conductance(model, signals, value);
+    };
+  }, true);
   // supply_drop: a supply pressure below the nominal one
   per_cylinder("supply_drop", "a lower supply pressure", [&](const CylinderSeries& cyl, Candidate* c) {
     const std::string& n = cyl.info.name;

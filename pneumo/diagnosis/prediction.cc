@@ -246,7 +246,9 @@ Windows MakeWindows(int rows, int horizon_rows, int warmup_rows) {
   return w;
 }
 
-bool EstimatesOverTheHistory(const mjModel* m) { return !Reservoirs(m).empty(); }
+bool EstimatesOverTheHistory(const mjModel* m, const SignalModel& signals) {
+  return signals.history_estimate || !Reservoirs(m).empty();
+}
 
 Prediction Predict(const mjModel* m, const Measurements& meas, const SignalModel& sensors, const Windows& windows,
                    PredictionKind kind, int threads) {
@@ -256,7 +258,7 @@ Prediction Predict(const mjModel* m, const Measurements& meas, const SignalModel
   std::vector<std::string> errors(n);
 
   // the history estimate, handed from the observer to the windows as it reaches each one
-  const bool history = EstimatesOverTheHistory(m);
+  const bool history = EstimatesOverTheHistory(m, sensors);
   std::vector<std::vector<mjtNum>> start_act(history ? n : 0);
   std::mutex mutex;
   std::condition_variable reached;

@@ -17,7 +17,8 @@
 // commands; a line's pressure starts it at its chamber's measured one. A state far slower than the
 // warm-up, a supply reservoir's pressure (it sags and refills over seconds), is estimated over the
 // whole history instead: an observer runs the log that way from its first row and hands each
-// window its states at the warm-up's first row (EstimatesOverTheHistory).
+// window its states at the warm-up's first row (EstimatesOverTheHistory; a gas temperature, which
+// relaxes over tenths of a second, when the signal model asks for it: SignalModel::history_estimate).
 #ifndef PNEUMATIC_DIAGNOSIS_PREDICTION_H_
 #define PNEUMATIC_DIAGNOSIS_PREDICTION_H_
 
@@ -44,6 +45,9 @@ namespace pneumatic::diagnosis {
 struct SignalModel {
   std::vector<double> offset, gain, reference;
   std::vector<double> command_delay;  // s, per cylinder
+  // the unmeasured states start each window from the history estimate (Predict) also in a model
+  // without a reservoir: heat_transfer's second form sets it for its gas temperatures
+  bool history_estimate = false;
   static SignalModel Identity(const Measurements& meas);
   double Measured(int signal, double truth) const { return reference[signal] + offset[signal] + gain[signal] * (truth - reference[signal]); }
   double Truth(int signal, double measured) const { return reference[signal] + (measured - reference[signal] - offset[signal]) / gain[signal]; }
@@ -68,12 +72,14 @@ struct Prediction {
   std::string error;  // non-empty: the model diverged or refused the state; `simulated` is incomplete
 };
 
-// True if m has a state far slower than a warm-up, a supply reservoir, which Predict then estimates
-// over the log's whole history, at the cost of one more simulation of the log (on a thread of its
-// own when there are two or more). A gas temperature (thermal_model=energy) relaxes over tenths of
-// a second and would gain too, but is left to the warm-up: the heat_transfer candidate is fitted
-// in every diagnosis round, and the history would cost it two to four times its fit (README).
-bool EstimatesOverTheHistory(const mjModel* m);
+// True if m has a state far slower than a warm-up, a supply reservoir, or the signal model asks
+// for it (SignalModel::history_estimate): Predict then estimates the unmeasured states over the
+// log's whole history, at the cost of one more simulation of the log (on a thread of its own when
+// there are two or more). A gas temperature (thermal_model=energy) relaxes over tenths of a second
+// and gains too, but heat_transfer's first form leaves it to the warm-up: it is fitted in every
+// diagnosis round, and the history would cost it two to four times its fit (README); its second
+// form, fitted only in the rounds the first leads, asks for it.
+bool EstimatesOverTheHistory(const mjModel* m, const SignalModel& signals);
 
 // Predicts `meas` with m (attached) on up to `threads` threads (windows are independent; each
 // thread has its own mjData, and each window writes only its own rows: the result does not depend
