@@ -341,13 +341,13 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
   per_cylinder("heat_transfer", "gas temperature as a state, one wall heat conductance for both chambers", energy_equation);
   // second form, a refinement (candidates.h): the same equation with the gas temperatures estimated
   // over the log's history (SignalModel::history_estimate). A gas temperature relaxes to the wall's
-  // over tenths of a second, longer than a 20 ms warm-up, so the first form starts every window with
-  // the temperature the log's last filling or venting left unaccounted for. The history costs a
+  // over tenths of a second, longer than a 20 ms warm-up, so the first form starts each window with
+  // its gas too close to the wall's temperature after a filling or a venting. The history costs a
   // simulation of the whole log per evaluation, so only the rounds the first form leads pay it
   per_cylinder("heat_transfer", "gas temperature as a state, one wall heat conductance, the temperatures estimated over the log's history",
                [&](const CylinderSeries& cyl, Candidate* c) {
     energy_equation(cyl, c);
-    std::function<std::string(mjModel*, SignalModel*, double)> set_conductance = c->parameters.back().apply;
+    const auto set_conductance = c->parameters.back().apply;
     c->parameters.back().apply = [set_conductance](mjModel* model, SignalModel* signals, double value) {
       signals->history_estimate = true;
       return set_conductance(model, signals, value);
