@@ -322,7 +322,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
     }
   });
   // heat_transfer: the gas temperature as a state (the energy equation of an open chamber with wall
-  // heat, Richer and Hurmuzlu 2000; plugin/README.md "Thermal model") with one wall heat conductance
+  // heat, Richer and Hurmuzlu 2000; plugin/README.md, "heat_transfer") with one wall heat conductance
   // for both chambers, started from a wall time constant m c_v / (h A) of 1 s for a chamber at
   // mid-stroke at 3 bar, or from the model's own
   auto energy_equation = [&](const CylinderSeries& cyl, Candidate* c) {

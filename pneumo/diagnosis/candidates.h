@@ -6,10 +6,10 @@
 //
 // A candidate changes the model in up to three ways: keys of a cylinder's "pneumatic:" text
 // (SetParameter), fields of mjModel (a joint's frictionloss, a body's mass), and the signal model
-// (offset and gain of one measured signal, a delay of the logged commands: prediction.h). Forms
-// with their own states (a gas temperature) also need the state's actuator in the MJCF: the
-// candidate lists it as a ModelEdit, and the model is reloaded from its file with the edit
-// (LoadEditedModel).
+// (offset and gain of one measured signal, a delay of the logged commands, the history estimate of
+// the unmeasured states: prediction.h). Forms with their own states (a gas temperature) also need
+// the state's actuator in the MJCF: the candidate lists it as a ModelEdit, and the model is
+// reloaded from its file with the edit (LoadEditedModel).
 #ifndef PNEUMATIC_DIAGNOSIS_CANDIDATES_H_
 #define PNEUMATIC_DIAGNOSIS_CANDIDATES_H_
 
