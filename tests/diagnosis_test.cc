@@ -188,7 +188,7 @@ std::optional<Candidate> RicherForm(const mjModel* m, const Measurements& meas, 
   return std::nullopt;
 }
 
-// `form` fitted on a 500 Hz rig C log as the diagnosis rounds fit (the default windows: 0.2 s
+// `form` fitted on a rig's 500 Hz log as the diagnosis rounds fit (the default windows: 0.2 s
 // after a 20 ms warm-up), with at most max_iterations of Levenberg-Marquardt
 CandidateFit FitOnRig(const std::string& rig, const Candidate& form, const Measurements& meas, int max_iterations) {
   FitOptions o;
@@ -289,6 +289,15 @@ TEST(DiagnosisPrediction, EstimatesASupplyTankOverTheLogsHistory) {
   }
 }
 
+// m c_v of the gas in a rig's chamber at mid-stroke at 3 bar and 293 K (J/K): a wall conductance h A
+// of m c_v / tau gives the wall time constant tau there (bench_diagnose's heat truth)
+double GasHeatCapacityAtMidStroke(const mjModel* rig) {
+  std::string error;
+  const double volume = *GetParameter(rig, "cyl", "P.dead_volume", &error) +
+                        *GetParameter(rig, "cyl", "P.area", &error) * *GetParameter(rig, "cyl", "stroke", &error) / 2;
+  return 3e5 * volume / (293 * 0.4);  // p V c_v / (R T), c_v / R = 1 / (gamma - 1) = 1 / 0.4
+}
+
 // heat_transfer's second form is the first's equation with the gas temperatures estimated over the
 // log's history: setting its conductance sets both chambers' and asks the signal model for the history
 TEST(DiagnosisCandidates, HeatTransfersSecondFormEstimatesTheTemperaturesOverTheHistory) {
@@ -319,10 +328,7 @@ TEST(DiagnosisPrediction, EstimatesTheGasTemperaturesOverTheLogsHistory) {
   std::string error;
   ModelPtr clean = LoadEditedModel(kRigB, {}, &error);
   ASSERT_TRUE(clean) << error;
-  // m c_v at 3 bar in a mid-stroke chamber (J/K), as bench_diagnose's heat truth
-  const double mid_volume = *GetParameter(clean.get(), "cyl", "P.dead_volume", &error) +
-                            *GetParameter(clean.get(), "cyl", "P.area", &error) * *GetParameter(clean.get(), "cyl", "stroke", &error) / 2;
-  const double mcv = 3e5 * mid_volume / (293 * 0.4);
+  const double mcv = GasHeatCapacityAtMidStroke(clean.get());
   const ModelEdit heat{"cyl", {"TP", "TN"}, {}, {}, {{"thermal_model", "energy"}, {"P.wall_heat_conductance", Number(mcv / 0.3)}, {"N.wall_heat_conductance", Number(mcv / 0.6)}}};
   ModelPtr thermal = LoadEditedModel(kRigB, {heat}, &error);
   ASSERT_TRUE(thermal) << error;
@@ -516,9 +522,7 @@ TEST(DiagnosisFit, RecoversAWallHeatConductanceOverTheHistory) {
   std::string error;
   ModelPtr clean = LoadEditedModel(kRigB, {}, &error);
   ASSERT_TRUE(clean) << error;
-  const double mid_volume = *GetParameter(clean.get(), "cyl", "P.dead_volume", &error) +
-                            *GetParameter(clean.get(), "cyl", "P.area", &error) * *GetParameter(clean.get(), "cyl", "stroke", &error) / 2;
-  const double conductance = 3e5 * mid_volume / (293 * 0.4) / 0.3;  // W/K: m c_v / (h A) = 0.3 s
+  const double conductance = GasHeatCapacityAtMidStroke(clean.get()) / 0.3;  // W/K: m c_v / (h A) = 0.3 s
   const ModelEdit heat{"cyl", {"TP", "TN"}, {}, {}, {{"thermal_model", "energy"}, {"wall_heat_conductance", Number(conductance)}}};
   std::optional<Measurements> meas = PrepareMeasurements(clean.get(), RigLog(kRigB, 3, 4.0, {heat}, 500, 0), 100, &error);
   ASSERT_TRUE(meas) << error;
