@@ -321,6 +321,25 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
       c->parameters.push_back(KeyParameter(n, key, std::max(Parameter(m, n, key, 0), 1e-9), 1e-12, 1e-5, 1e-9, true));
     }
   });
+  // leakage, second form, a refinement (candidates.h): laminar leaks along the same paths, the mass
+  // flow G dp proportional to the pressure difference (the plugin's *_leak_conductance, the
+  // project's own form: the viscous flow of a seal's clearance gap, where the orifice form is a
+  // hole's). The two forms are the ends of a real leak's range; where the first leads a round, the
+  // held-out gap tells which end is nearer. Its range is the orifice form's, converted at a choked
+  // flow from the supply to the exhaust: G = C1 a p_s / (sqrt(T) (p_s - p_e)), with paper 001 eq. 2's
+  // C1 = sqrt(gamma/r (2/(gamma+1))^((gamma+1)/(gamma-1))) for air
+  per_cylinder("leakage", "laminar leaks across the piston and to the atmosphere (flow proportional to the pressure difference)",
+               [&](const CylinderSeries& cyl, Candidate* c) {
+    const std::string& n = cyl.info.name;
+    const double gamma = 1.4, r = 287.0;
+    const double c1 = std::sqrt(gamma / r * std::pow(2 / (gamma + 1), (gamma + 1) / (gamma - 1)));
+    const double per_area = c1 * cyl.info.p_supply /
+                            (std::sqrt(Parameter(m, n, "temperature", 293.15)) * (cyl.info.p_supply - cyl.info.p_exhaust));
+    for (const char* key : {"piston_leak_conductance", "P.atmosphere_leak_conductance", "N.atmosphere_leak_conductance"}) {
+      c->parameters.push_back(KeyParameter(n, key, std::max(Parameter(m, n, key, 0), 1e-9 * per_area), 1e-12 * per_area,
+                                           1e-5 * per_area, 1e-9 * per_area, true));
+    }
+  }, true);
   // heat_transfer: the gas temperature as a state (the energy equation of an open chamber with wall
   // heat, Richer and Hurmuzlu 2000; plugin/README.md, "heat_transfer") with one wall heat conductance
   // for both chambers, started from a wall time constant m c_v / (h A) of 1 s for a chamber at

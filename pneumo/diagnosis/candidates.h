@@ -2,7 +2,9 @@
 // shared/spec/effects.md, the form the diagnosis adds to the user's model and the parameters it
 // fits. The forms are deliberately simple (a Coulomb friction for whatever the seals do, one wall
 // heat conductance, an orifice leak): a real effect will not follow any one form, and a simple
-// form that captures its signature generalises to held-out data better than a rich one.
+// form that captures its signature generalises to held-out data better than a rich one. Where one
+// simple form leaves much unexplained, a second form of the effect is tried in the rounds the first
+// leads (Candidate::refinement: a dead time, laminar leaks, a supply tank, ...).
 //
 // A candidate changes the model in up to three ways: keys of a cylinder's "pneumatic:" text
 // (SetParameter), fields of mjModel (a joint's frictionloss, a body's mass), and the signal model

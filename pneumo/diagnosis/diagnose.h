@@ -16,7 +16,8 @@
 // such candidate is the verdict, and the search repeats with it in the model, so that two effects
 // present together are both found. No such candidate: `none`. A richer form of an effect
 // (Candidate::refinement: supply_drop's tank, valve_delay's dead time and exact latency,
-// line_dynamics' transport delay) is fitted only in a round that the effect's
+// line_dynamics' transport delay, leakage's laminar leaks, heat_transfer's gas temperatures
+// estimated over the history) is fitted only in a round that the effect's
 // simpler form leads by dIC, with the joint refit's iterations (refit_iterations) and a finer scan
 // (refinement_scan_grid_points), and then ranked with the rest.
 // How far: the held-out gap before and after, per signal and as one number (effect_fit.h).

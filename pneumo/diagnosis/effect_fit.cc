@@ -104,7 +104,8 @@ class EffectCost : public ceres::CostFunction {
 // t = (j + 1/2) / points along their log ranges (value = lower (upper / lower)^t). Parameters of
 // one kind (one unit, such as a candidate's three leak areas) move together; kinds are scanned on
 // a grid of `grid_points` per kind (a tank's volume and its line's conductance: 6 x 6), since a
-// volume says nothing about the conductance it goes with. The others are held. Returns the start
+// volume says nothing about the conductance it goes with; then each parameter of a kind of several
+// alone, from the best point. The others are held. Returns the start
 // for the fit: the best point, or the initial values where no point improves the sum of squares
 // *initial_ss (updated to the best point's); a point the model refuses counts as no better.
 std::vector<double> ScanLogarithmic(const EffectCost& cost, const Candidate& c, const std::vector<double>& initial,
@@ -137,6 +138,21 @@ std::vector<double> ScanLogarithmic(const EffectCost& cost, const Candidate& c, 
     Eigen::VectorXd r;
     if (!cost.Residuals(trial, &r).empty()) continue;
     if (const double ss = r.squaredNorm(); ss < best_ss) best_ss = ss, best = trial;
+  }
+  // then each parameter of a kind that has several alone, at the same points, from the best so far
+  // (one sweep): an effect need not act alike in every place (one chamber's leak to the
+  // atmosphere, none from the other), and the joint scan sets them all alike
+  for (size_t i = 0; i < c.parameters.size(); ++i) {
+    if (kind_of[i] < 0 || std::count(kind_of.begin(), kind_of.end(), kind_of[i]) < 2) continue;
+    const EffectParameter& p = c.parameters[i];
+    const std::vector<double> from = best;
+    for (int j = 0; j < points; ++j) {
+      std::vector<double> trial = from;
+      trial[i] = p.lower * std::pow(p.upper / p.lower, (j + 0.5) / points);
+      Eigen::VectorXd r;
+      if (!cost.Residuals(trial, &r).empty()) continue;
+      if (const double ss = r.squaredNorm(); ss < best_ss) best_ss = ss, best = trial;
+    }
   }
   return best;
 }

@@ -79,7 +79,8 @@ struct FitOptions {
   // two, so their initial values may be decades off) are scanned at points spread evenly over
   // their ranges on their log scales, and the fit starts from the best point: those of one unit
   // together, at scan_points; parameters of different units (a volume and a conductance) on a
-  // grid of scan_grid_points per unit. Then the grid scan: the parameters with a scan_step
+  // grid of scan_grid_points per unit; then each parameter of a unit that several share, alone
+  // (three leak areas: one place may leak, the others not). Then the grid scan: the parameters with a scan_step
   // (EffectParameter) together on the first one's grid. 0: neither scan
   int scan_points = 6;
   int scan_grid_points = 4;
