@@ -123,6 +123,13 @@ std::vector<double> ScanLogarithmic(const EffectCost& cost, const Candidate& c, 
   if (points <= 0) return initial;
   std::vector<double> best = initial;
   double& best_ss = *initial_ss;
+  // the j-th of the `points` positions along p's log range
+  auto position = [points](const EffectParameter& p, int j) { return p.lower * std::pow(p.upper / p.lower, (j + 0.5) / points); };
+  auto keep_if_better = [&](const std::vector<double>& trial) {
+    Eigen::VectorXd r;
+    if (!cost.Residuals(trial, &r).empty()) return;
+    if (const double ss = r.squaredNorm(); ss < best_ss) best_ss = ss, best = trial;
+  };
   int grid = 1;
   for (size_t k = 0; k < kinds.size(); ++k) grid *= points;
   for (int g = 0; g < grid; ++g) {
@@ -131,27 +138,20 @@ std::vector<double> ScanLogarithmic(const EffectCost& cost, const Candidate& c, 
       if (kind_of[i] < 0) continue;
       int j = g;  // the digit of kind_of[i] in base `points`
       for (int k = 0; k < kind_of[i]; ++k) j /= points;
-      const double t = (j % points + 0.5) / points;
-      const EffectParameter& p = c.parameters[i];
-      trial[i] = p.lower * std::pow(p.upper / p.lower, t);
+      trial[i] = position(c.parameters[i], j % points);
     }
-    Eigen::VectorXd r;
-    if (!cost.Residuals(trial, &r).empty()) continue;
-    if (const double ss = r.squaredNorm(); ss < best_ss) best_ss = ss, best = trial;
+    keep_if_better(trial);
   }
   // then each parameter of a kind that has several alone, at the same points, from the best so far
   // (one sweep): an effect need not act alike in every place (one chamber's leak to the
   // atmosphere, none from the other), and the joint scan sets them all alike
   for (size_t i = 0; i < c.parameters.size(); ++i) {
     if (kind_of[i] < 0 || std::count(kind_of.begin(), kind_of.end(), kind_of[i]) < 2) continue;
-    const EffectParameter& p = c.parameters[i];
     const std::vector<double> from = best;
     for (int j = 0; j < points; ++j) {
       std::vector<double> trial = from;
-      trial[i] = p.lower * std::pow(p.upper / p.lower, (j + 0.5) / points);
-      Eigen::VectorXd r;
-      if (!cost.Residuals(trial, &r).empty()) continue;
-      if (const double ss = r.squaredNorm(); ss < best_ss) best_ss = ss, best = trial;
+      trial[i] = position(c.parameters[i], j);
+      keep_if_better(trial);
     }
   }
   return best;
