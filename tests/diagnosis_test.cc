@@ -196,6 +196,30 @@ std::optional<Candidate> FirstForm(const mjModel* m, const Measurements& meas, c
   return std::nullopt;
 }
 
+// leakage's laminar form takes its range from the orifice form's at a choked flow from the supply
+// to the exhaust, through paper 001 eq. 2's C1 of the cylinder's own gas: for helium (gamma 1.66,
+// r 2077 J/(kg K)) C1 is 0.015913 against air's 0.040418 (by hand), so every bound is 0.39371 of
+// air's on the same rig (rig C, set to helium by SetParameters).
+TEST(DiagnosisCandidates, LaminarLeakRangeFollowsTheCylindersGas) {
+  std::string error;
+  ModelPtr air = LoadEditedModel(kRigC, {}, &error);
+  ModelPtr helium = LoadEditedModel(kRigC, {}, &error);
+  ASSERT_TRUE(air && helium) << error;
+  ASSERT_TRUE(SetParameter(air.get(), "cyl", "gas_constant", 287.0, &error)) << error;
+  ASSERT_TRUE(SetParameters(helium.get(), "cyl", {{"gas_constant", "2077"}, {"heat_capacity_ratio", "1.66"}}, &error)) << error;
+  std::optional<Measurements> meas = PrepareMeasurements(air.get(), RigCLog(1, 1.0, 0, 1), 100, &error);
+  ASSERT_TRUE(meas) << error;
+  const std::optional<Candidate> air_form = RicherForm(air.get(), *meas, "leakage", "laminar");
+  const std::optional<Candidate> helium_form = RicherForm(helium.get(), *meas, "leakage", "laminar");
+  ASSERT_TRUE(air_form && helium_form);
+  ASSERT_EQ(air_form->parameters.size(), 3u);
+  ASSERT_EQ(helium_form->parameters.size(), 3u);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(helium_form->parameters[i].upper / air_form->parameters[i].upper, 0.39371, 1e-5) << air_form->parameters[i].name;
+    EXPECT_NEAR(helium_form->parameters[i].lower / air_form->parameters[i].lower, 0.39371, 1e-5) << air_form->parameters[i].name;
+  }
+}
+
 // `form` fitted on a rig's 500 Hz log as the diagnosis rounds fit (the default windows: 0.2 s
 // after a 20 ms warm-up), with at most max_iterations of Levenberg-Marquardt
 CandidateFit FitOnRig(const std::string& rig, const Candidate& form, const Measurements& meas, int max_iterations) {

@@ -327,11 +327,11 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
   // hole's). The two forms are the ends of a real leak's range; where the first leads a round, the
   // held-out gap tells which end is nearer. Its range is the orifice form's, converted at a choked
   // flow from the supply to the exhaust: G = C1 a p_s / (sqrt(T) (p_s - p_e)), with paper 001 eq. 2's
-  // C1 = sqrt(gamma/r (2/(gamma+1))^((gamma+1)/(gamma-1))) for air
+  // C1 = sqrt(gamma/r (2/(gamma+1))^((gamma+1)/(gamma-1))) for the cylinder's gas
   per_cylinder("leakage", "laminar leaks across the piston and to the atmosphere (flow proportional to the pressure difference)",
                [&](const CylinderSeries& cyl, Candidate* c) {
     const std::string& n = cyl.info.name;
-    const double gamma = 1.4, r = 287.0;
+    const double gamma = Parameter(m, n, "heat_capacity_ratio", 1.4), r = Parameter(m, n, "gas_constant", 287);
     const double c1 = std::sqrt(gamma / r * std::pow(2 / (gamma + 1), (gamma + 1) / (gamma - 1)));
     const double per_area = c1 * cyl.info.p_supply /
                             (std::sqrt(Parameter(m, n, "temperature", 293.15)) * (cyl.info.p_supply - cyl.info.p_exhaust));
