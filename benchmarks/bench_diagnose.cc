@@ -8,7 +8,8 @@
 // truth uses a form the candidate library does not (truth -> candidate), or that only a richer
 // form of the library, fitted when the simpler one leads, has (one supply truth is the tank
 // candidate's own form, and another supply truth then is not):
-//   friction       LuGre (dynamic stick-slip, static above Coulomb)  -> Coulomb (joint frictionloss)
+//   friction       LuGre (dynamic stick-slip, static above Coulomb), -> Coulomb (joint frictionloss); richer:
+//                  or LuGre mostly viscous (a lubricated seal)          Coulomb and viscous (frictionloss, damping)
 //   valve_delay    on/off armature delays that lose short pulses     -> (same keys: the armature model)
 //                  proportional valves' dead time (Pade)             -> a slower first-order spool; richer:
 //                                                                       a dead time (Pade) before the lag
@@ -193,6 +194,12 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
     lugre(0.03 * rig.max_force, 0.06 * rig.max_force, "");
     // the seal friction measured on paper 001's cylinder (below its eq. 1): 20 N Coulomb, 40 N static
     if (valve == "proportional_5_3") lugre(20, 40, " (paper 001)");
+    // a seal whose friction is mostly viscous (a lubricated seal): LuGre's sigma2 giving 3 % of the
+    // largest force at one stroke per second, on a small Coulomb and static level
+    const double viscous = 0.03 * rig.max_force / rig.stroke;
+    t.push_back({"viscous friction " + num(viscous) + " N s/m, LuGre Coulomb " + num(0.01 * rig.max_force) + " N", {"friction"},
+                 {{"cyl", {"z"}, {"friction"}, {}, {{"friction_model", "lugre"}, {"coulomb_friction", num(0.01 * rig.max_force)},
+                   {"static_friction", num(0.02 * rig.max_force)}, {"stribeck_velocity", "0.01"}, {"viscous_friction", num(viscous)}}}}});
   }
   {
     // laminar: about 2 % of a valve's flow at a 3 bar difference across the piston

@@ -297,21 +297,45 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
     }
   });
   // friction: Coulomb friction of the seals as MuJoCo's frictionloss on the driven joint (an
-  // implicit constraint: it holds below the level and opposes sliding at it)
-  per_cylinder("friction", "Coulomb friction (the joint's frictionloss)", [&](const CylinderSeries& cyl, Candidate* c) {
+  // implicit constraint: it holds below the level and opposes sliding at it). In the joint's units:
+  // x = gear q, so a force F on the piston is gear F on the joint
+  auto coulomb_friction = [&](const CylinderSeries& cyl, Candidate* c) {
     const int dof = m->jnt_dofadr[cyl.joint];
     EffectParameter p;
     p.name = cyl.info.name + ":joint " + std::string(m->names + m->name_jntadr[cyl.joint]) + " frictionloss";
     p.unit = m->jnt_type[cyl.joint] == mjJNT_HINGE ? "N m" : "N";
     p.initial = m->dof_frictionloss[dof];
-    p.lower = 0, p.upper = 0.5 * MaxForce(m, cyl) / cyl.gear;
-    p.scale = 0.02 * MaxForce(m, cyl) / cyl.gear;
+    p.lower = 0, p.upper = 0.5 * MaxForce(m, cyl) * cyl.gear;
+    p.scale = 0.02 * MaxForce(m, cyl) * cyl.gear;
     p.apply = [dof](mjModel* model, SignalModel*, double value) {
       model->dof_frictionloss[dof] = value;
       return std::string();
     };
     c->parameters.push_back(p);
-  });
+  };
+  per_cylinder("friction", "Coulomb friction (the joint's frictionloss)", coulomb_friction);
+  // friction, second form, a refinement: Coulomb and viscous friction, a lubricated seal's force
+  // growing with the speed (F = F_c sign(v) + b v; the viscous term of LuGre, Canudas de Wit et al.
+  // 1995 eq. 4's sigma2), as the joint's frictionloss and damping (MuJoCo's passive force -b qdot).
+  // The damping in the joint's units is gear^2 b; its range is
+  // up to the largest force at a tenth of a stroke per second, its unit 2 % of it at one stroke per
+  // second
+  per_cylinder("friction", "Coulomb and viscous friction (the joint's frictionloss and damping)", [&](const CylinderSeries& cyl, Candidate* c) {
+    coulomb_friction(cyl, c);
+    const int dof = m->jnt_dofadr[cyl.joint];
+    const double per_stroke_speed = cyl.gear * cyl.gear / std::max(cyl.stroke, 1e-9);  // joint damping of 1 N at one stroke per second
+    EffectParameter p;
+    p.name = cyl.info.name + ":joint " + std::string(m->names + m->name_jntadr[cyl.joint]) + " damping";
+    p.unit = m->jnt_type[cyl.joint] == mjJNT_HINGE ? "N m s/rad" : "N s/m";
+    p.initial = m->dof_damping[dof];
+    p.lower = 0, p.upper = std::max(10 * MaxForce(m, cyl) * per_stroke_speed, 2 * p.initial);
+    p.scale = 0.02 * MaxForce(m, cyl) * per_stroke_speed;
+    p.apply = [dof](mjModel* model, SignalModel*, double value) {
+      model->dof_damping[dof] = value;
+      return std::string();
+    };
+    c->parameters.push_back(p);
+  }, true);
   // leakage: orifices across the piston and from each chamber to the atmosphere (the turbulent form;
   // a real leak may be laminar, or anything between)
   per_cylinder("leakage", "orifice leaks across the piston and to the atmosphere", [&](const CylinderSeries& cyl, Candidate* c) {
