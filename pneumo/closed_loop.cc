@@ -410,7 +410,7 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
         out.values[static_cast<size_t>(out_column)].push_back(commands[i][j].second);
       }
       const CylinderMeasurement& y = measured[i];
-      for (double value : {y.p_P, y.p_N, y.x, PistonVelocity(m, present, ch.info), ch.info.p_supply, y.reference}) {
+      for (double value : {y.p_P, y.p_N, y.x, PistonVelocity(m, present, ch.info), SupplyPressure(m, d.get(), ch.info), y.reference}) {
         out.values[column++].push_back(value);
       }
     }

@@ -233,7 +233,7 @@ RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutO
       out.values[col++].push_back(ChamberPressure(m, d.get(), c, Chamber::kN));
       out.values[col++].push_back(PistonPosition(m, d.get(), c));
       out.values[col++].push_back(PistonVelocity(m, d.get(), c));
-      out.values[col++].push_back(c.p_supply);
+      out.values[col++].push_back(SupplyPressure(m, d.get(), c));
     }
     out.time.push_back(commands ? commands->time[row] : t0 + static_cast<double>(row) * period);
     for (long k = 0; k < steps; ++k) {

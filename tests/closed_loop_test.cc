@@ -3,6 +3,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -29,6 +30,7 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using testing::AttachedModel;
 using testing::ReadText;
+using testing::ReplaceAll;
 using testing::ShippedModel;
 
 // a reference log: x = 0 until 0.5 s, then `target`
@@ -116,6 +118,39 @@ TEST(ClosedLoop, ProportionalRigsFollowAStepWithinOneMillimetre) {
     EXPECT_TRUE(result.summary.cylinders[0].within_supply_range) << rig;
     EXPECT_TRUE(result.summary.warnings.empty()) << rig << ": " << result.summary.warnings.front();
     EXPECT_EQ(result.summary.steps, std::lround(3 / model.m()->opt.timestep)) << rig;
+  }
+}
+
+// log_format.md's p_S is the supply pressure the valves see: with a reservoir feeding the cylinder
+// (supply=NAME: here a tank of 5e-5 m^3, about 10 mid-stroke chambers of rig C, behind a line of half
+// its valve's conductance) it is the reservoir's pressure, charged to the compressor's 6.2e5 Pa at reset,
+// drawn down while a step fills a chamber, never above the compressor, and recovering once the piston
+// holds; without one, the constant p_supply.
+TEST(ClosedLoop, LogsTheSupplyPressureTheValvesSee) {
+  const std::string rig = ReadText(ShippedModel("rig_per_chamber.xml"));
+  std::string fed = ReplaceAll(rig, "</actuator>", "  <general name=\"tank.pressure\" joint=\"x\" dyntype=\"user\" gaintype=\"user\"/>\n</actuator>");
+  fed = ReplaceAll(fed, "</custom>", "  <text name=\"pneumatic_reservoir:tank\" data=\"volume=5e-5 line_conductance=2.9e-9\"/>\n</custom>");
+  fed = ReplaceAll(fed, "area_smoothing=1e-6\"", "area_smoothing=1e-6 supply=tank\"");
+  ASSERT_NE(fed.find("supply=tank"), std::string::npos);
+  const log::Log reference = StepReference(0.03);
+  ClosedLoopOptions options;
+  options.duration = 3;
+  options.reference = &reference;
+  for (const bool with_tank : {false, true}) {
+    AttachedModel model;
+    ASSERT_TRUE(with_tank ? model.Load(fed) : model.Load(ShippedModel("rig_per_chamber.xml"), true)) << model.error();
+    ClosedLoopResult result = RunClosedLoop(model.m(), options);
+    ASSERT_TRUE(result.log) << result.error;
+    const std::vector<double>& p_s = result.log->values[static_cast<size_t>(result.log->FindColumn("cyl", "p_S"))];
+    const double lowest = *std::min_element(p_s.begin(), p_s.end());
+    EXPECT_EQ(p_s.front(), 6.2e5) << "charged at reset";
+    EXPECT_LE(*std::max_element(p_s.begin(), p_s.end()), 6.2e5);
+    if (!with_tank) {
+      EXPECT_EQ(lowest, 6.2e5);
+      continue;
+    }
+    EXPECT_LT(lowest, 0.99 * 6.2e5) << "drawn down by the step";
+    EXPECT_GT(p_s.back(), lowest + 0.5 * (6.2e5 - lowest)) << "refilled while the piston holds";
   }
 }
 

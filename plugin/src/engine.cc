@@ -640,7 +640,10 @@ std::vector<CylinderInfo> Cylinders(const mjModel* m) {
   std::string ignored;
   std::vector<CylinderInfo> out;
   if (auto model = m ? Compiled(m, &ignored) : nullptr) {
-    for (const Cylinder& c : model->cylinders) out.push_back(c.info());
+    for (size_t i = 0; i < model->cylinders.size(); ++i) {
+      out.push_back(model->cylinders[i].info());
+      if (const int r = model->supply[i]; r >= 0) out.back().supply_actuator = model->reservoirs[static_cast<size_t>(r)].actuator;
+    }
   }
   return out;
 }
@@ -668,6 +671,11 @@ double ReservoirPressure(const mjModel* m, const mjData* d, const ReservoirInfo&
 
 void SetReservoirPressure(const mjModel* m, mjData* d, const ReservoirInfo& r, double pressure) {
   d->act[r.actuator - (m->nu - m->na)] = pressure - r.p_source;
+}
+
+double SupplyPressure(const mjModel* m, const mjData* d, const CylinderInfo& c) {
+  if (c.supply_actuator < 0) return c.p_supply;
+  return d->act[c.supply_actuator - (m->nu - m->na)] + c.p_supply;  // the reservoir's p_source is its cylinders' p_supply
 }
 
 namespace {

@@ -98,6 +98,9 @@ struct CylinderInfo {
   // mount=hinge_sites: the sites "<name>.cap" and "<name>.rod" the cylinder spans and the hinge it turns
   // (its chamber actuators' joint); -1 for a cylinder that moves with its transmission
   int cap_site = -1, rod_site = -1, hinge = -1;
+  // supply=<reservoir>: that reservoir's "<reservoir>.pressure" actuator (act = p - p_supply), or -1
+  // for a cylinder fed at p_supply
+  int supply_actuator = -1;
 };
 
 // The cylinders of an attached model (empty if m is not attached).
@@ -127,6 +130,10 @@ std::optional<double> HingeAngleAt(const mjModel* m, const mjData* d, const Cyli
 // The joint whose coordinate the piston position is proportional to (x = gear q - x_mid: a slide or
 // hinge joint transmission), or -1 (a tendon, a slider-crank, or mount=hinge_sites).
 int DrivenJoint(const mjModel* m, const CylinderInfo& c);
+
+// Absolute pressure (Pa) at the cylinder's supply ports, the log's p_S: its reservoir's (a state,
+// d->act) when one feeds it, else p_supply.
+double SupplyPressure(const mjModel* m, const mjData* d, const CylinderInfo& c);
 
 // Absolute chamber pressure (Pa) read from, or written to, d->act.
 double ChamberPressure(const mjModel* m, const mjData* d, const CylinderInfo& c, Chamber k);
