@@ -612,9 +612,9 @@ TEST(DiagnosisFit, RecoversALaminarLeakTheOrificeFormOnlyApproximates) {
 
 // friction's two forms state their bounds in the joint's units: x = gear q, so a force F on the
 // piston is gear F on the joint and a viscous coefficient b is gear^2 b. On rig C with the
-// transmission's gear set to 0.05 m/rad, the Coulomb bound is half the largest force (7.854e-5 m^2
-// x 520000 Pa above rig C's 1e5 Pa atmosphere = 40.84 N) times 0.05, and the viscous unit 2 % of that force at one stroke (0.1 m)
-// per second times 0.05^2.
+// transmission's gear set to 0.05 (x = 0.05 q, a lever), the Coulomb bound is half the largest force
+// (7.854e-5 m^2 x 520000 Pa above rig C's 1e5 Pa atmosphere = 40.84 N) times 0.05, and the viscous
+// unit 2 % of that force at one stroke (0.1 m) per second times 0.05^2.
 TEST(DiagnosisCandidates, FrictionBoundsAreInTheJointsUnits) {
   std::string error;
   ModelPtr m = LoadEditedModel(kRigC, {}, &error);
