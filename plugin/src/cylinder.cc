@@ -39,8 +39,8 @@ double ClampedControl(const mjModel* m, const mjData* d, int id) {
   return u;
 }
 
-double Act(const mjModel* m, const mjData* d, int id) { return d->act[id - (m->nu - m->na)]; }
-double& ActDot(const mjModel* m, mjData* d, int id) { return d->act_dot[id - (m->nu - m->na)]; }
+double Act(const mjModel* m, const mjData* d, int id) { return d->act[ActIndex(m, id)]; }
+double& ActDot(const mjModel* m, mjData* d, int id) { return d->act_dot[ActIndex(m, id)]; }
 
 // a body's or joint's name, or "#id" for an unnamed one
 std::string ObjectName(const mjModel* m, mjtObj type, int id) {
@@ -783,7 +783,7 @@ double ChamberPressure(const mjModel* m, const mjData* d, const CylinderInfo& c,
 }
 
 void SetChamberPressure(const mjModel* m, mjData* d, const CylinderInfo& c, Chamber k, double pressure) {
-  d->act[c.chamber_actuator[static_cast<int>(k)] - (m->nu - m->na)] = pressure - c.p_atm;
+  d->act[ActIndex(m, c.chamber_actuator[static_cast<int>(k)])] = pressure - c.p_atm;
 }
 
 }  // namespace pneumatic

@@ -404,7 +404,7 @@ bool ForcesAreCurrent(const mjModel* m, const mjData* d, const CompiledModel& mo
   for (const Cylinder& c : model.cylinders) {
     int id = c.info().chamber_actuator[0];
     double gain = c.config().mount == Mount::kHingeSites ? c.ChamberGain(d, 0) : m->actuator_gainprm[id * mjNGAIN];
-    double force = gain * d->act[id - (m->nu - m->na)];
+    double force = gain * d->act[ActIndex(m, id)];
     if (m->actuator_forcelimited[id]) force = Clip(force, m->actuator_forcerange[2 * id], m->actuator_forcerange[2 * id + 1]);
     if (d->actuator_force[id] != force) return false;
   }
@@ -427,12 +427,11 @@ bool ForcesAreCurrent(const mjModel* m, const mjData* d, const CompiledModel& mo
 void StepWithReservoirs(const CompiledModel& model, const mjModel* m, mjData* d, const PassInputs& pass) {
   const double h = m->opt.timestep;
   const int n = static_cast<int>(model.reservoirs.size());
-  const int first_act = m->nu - m->na;
   mjtNum* pressure = mj_stackAlloc(d, 2 * n);  // inside the caller's mjMARKSTACK
   mjtNum* drawn = pressure + n;
   for (int r = 0; r < n; ++r) {
     const BoundReservoir& reservoir = model.reservoirs[r];
-    pressure[r] = d->act[reservoir.actuator - first_act] + reservoir.model.p_source;
+    pressure[r] = d->act[ActIndex(m, reservoir.actuator)] + reservoir.model.p_source;
     drawn[r] = 0;
   }
   for (size_t c = 0; c < model.cylinders.size(); ++c) {
@@ -446,7 +445,7 @@ void StepWithReservoirs(const CompiledModel& model, const mjModel* m, mjData* d,
   for (int r = 0; r < n; ++r) {
     const BoundReservoir& reservoir = model.reservoirs[r];
     double end = ReservoirPressureStep(reservoir.model, pressure[r], drawn[r], h);
-    d->act_dot[reservoir.actuator - first_act] = (end - pressure[r]) / h;
+    d->act_dot[ActIndex(m, reservoir.actuator)] = (end - pressure[r]) / h;
   }
 }
 
@@ -509,14 +508,14 @@ void StepPass(const CompiledModel& model, const mjModel* m, mjData* d) {
 // every act_dot of the model's stored actuators set to 0: their states hold
 void HoldEveryState(const mjModel* m, mjData* d) {
   for (int id = m->nu - m->na; id < m->nu; ++id) {
-    if (IsTagged(m, id)) d->act_dot[id - (m->nu - m->na)] = 0;
+    if (IsTagged(m, id)) d->act_dot[ActIndex(m, id)] = 0;
   }
 }
 
 mjtNum ActDyn(const mjModel* m, const mjData* d, int id) {
   // the hot path: a pneumatic actuator other than the leader, whose pass (earlier in this
   // mj_fwdActuation: MuJoCo asks in increasing id) wrote its act_dot
-  if (IsTagged(m, id) && UserData(m, id)[LeaderSlot()] == 0) return d->act_dot[id - (m->nu - m->na)];
+  if (IsTagged(m, id) && UserData(m, id)[LeaderSlot()] == 0) return d->act_dot[ActIndex(m, id)];
   const CompiledModel* model = Lookup(m, id);
   if (!model && IsTagged(m, id)) {
     // the leader of a model whose stored parameters are damaged (Lookup warned): nothing steps on them
@@ -530,7 +529,7 @@ mjtNum ActDyn(const mjModel* m, const mjData* d, int id) {
   // the pass writes every pneumatic act_dot of d at once; act_dot is MuJoCo's output slot for them
   mjData* data = const_cast<mjData*>(d);
   if (id == model->leader) StepPass(*model, m, data);
-  return d->act_dot[id - (m->nu - m->na)];
+  return d->act_dot[ActIndex(m, id)];
 }
 
 // gaintype="user": the chambers of a cylinder with mount=hinge_sites (their gain follows the lever arm);
@@ -666,16 +665,16 @@ std::vector<ReservoirInfo> Reservoirs(const mjModel* m) {
 }
 
 double ReservoirPressure(const mjModel* m, const mjData* d, const ReservoirInfo& r) {
-  return d->act[r.actuator - (m->nu - m->na)] + r.p_source;
+  return d->act[ActIndex(m, r.actuator)] + r.p_source;
 }
 
 void SetReservoirPressure(const mjModel* m, mjData* d, const ReservoirInfo& r, double pressure) {
-  d->act[r.actuator - (m->nu - m->na)] = pressure - r.p_source;
+  d->act[ActIndex(m, r.actuator)] = pressure - r.p_source;
 }
 
 double SupplyPressure(const mjModel* m, const mjData* d, const CylinderInfo& c) {
   if (c.supply_actuator < 0) return c.p_supply;
-  return d->act[c.supply_actuator - (m->nu - m->na)] + c.p_supply;  // the reservoir's p_source is its cylinders' p_supply
+  return d->act[ActIndex(m, c.supply_actuator)] + c.p_supply;  // a reservoir's p_source is its cylinders' p_supply
 }
 
 namespace {

@@ -72,6 +72,10 @@ std::string StateActuatorProblem(const mjModel* m, int id, const RoleSpec& r);
 // "state", "command", "command + state", "force", "state + force"
 std::string RoleKindText(const RoleSpec& r);
 
+// the index in mjData::act (and act_dot) of a stateful actuator `id`: MuJoCo orders the actuators
+// with dynamics last, so act holds actuators nu - na ... nu - 1
+inline int ActIndex(const mjModel* m, int id) { return id - (m->nu - m->na); }
+
 }  // namespace pneumatic
 
 #endif  // PNEUMATIC_ROLES_H_

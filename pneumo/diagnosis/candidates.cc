@@ -296,44 +296,42 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
       c->parameters.push_back(KeyParameter(n, "deadband_voltage", Parameter(m, n, "deadband_voltage", 0), 0, 3, 0.1));
     }
   });
+  // a parameter of the driven joint's degree of freedom: the mjModel array `field` (dof_frictionloss,
+  // dof_damping), named "CYLINDER:joint JOINT KEY", its unit by the joint's type; bounds by the caller
+  auto joint_parameter = [&](const CylinderSeries& cyl, mjtNum* mjModel::*field, const char* key, const char* hinge_unit,
+                             const char* slide_unit) {
+    const int dof = m->jnt_dofadr[cyl.joint];
+    EffectParameter p;
+    p.name = cyl.info.name + ":joint " + std::string(m->names + m->name_jntadr[cyl.joint]) + " " + key;
+    p.unit = m->jnt_type[cyl.joint] == mjJNT_HINGE ? hinge_unit : slide_unit;
+    p.initial = (m->*field)[dof];
+    p.apply = [dof, field](mjModel* model, SignalModel*, double value) {
+      (model->*field)[dof] = value;
+      return std::string();
+    };
+    return p;
+  };
   // friction: Coulomb friction of the seals as MuJoCo's frictionloss on the driven joint (an
   // implicit constraint: it holds below the level and opposes sliding at it). In the joint's units:
   // x = gear q, so a force F on the piston is gear F on the joint
   auto coulomb_friction = [&](const CylinderSeries& cyl, Candidate* c) {
-    const int dof = m->jnt_dofadr[cyl.joint];
-    EffectParameter p;
-    p.name = cyl.info.name + ":joint " + std::string(m->names + m->name_jntadr[cyl.joint]) + " frictionloss";
-    p.unit = m->jnt_type[cyl.joint] == mjJNT_HINGE ? "N m" : "N";
-    p.initial = m->dof_frictionloss[dof];
+    EffectParameter p = joint_parameter(cyl, &mjModel::dof_frictionloss, "frictionloss", "N m", "N");
     p.lower = 0, p.upper = 0.5 * MaxForce(m, cyl) * cyl.gear;
     p.scale = 0.02 * MaxForce(m, cyl) * cyl.gear;
-    p.apply = [dof](mjModel* model, SignalModel*, double value) {
-      model->dof_frictionloss[dof] = value;
-      return std::string();
-    };
     c->parameters.push_back(p);
   };
   per_cylinder("friction", "Coulomb friction (the joint's frictionloss)", coulomb_friction);
   // friction, second form, a refinement: Coulomb and viscous friction, a lubricated seal's force
   // growing with the speed (F = F_c sign(v) + b v; the viscous term of LuGre, Canudas de Wit et al.
   // 1995 eq. 4's sigma2), as the joint's frictionloss and damping (MuJoCo's passive force -b qdot).
-  // The damping in the joint's units is gear^2 b; its range is
-  // up to the largest force at a tenth of a stroke per second, its unit 2 % of it at one stroke per
-  // second
+  // The damping in the joint's units is gear^2 b; its range is up to the largest force at a tenth of
+  // a stroke per second, its unit 2 % of it at one stroke per second
   per_cylinder("friction", "Coulomb and viscous friction (the joint's frictionloss and damping)", [&](const CylinderSeries& cyl, Candidate* c) {
     coulomb_friction(cyl, c);
-    const int dof = m->jnt_dofadr[cyl.joint];
     const double per_stroke_speed = cyl.gear * cyl.gear / std::max(cyl.stroke, 1e-9);  // joint damping of 1 N at one stroke per second
-    EffectParameter p;
-    p.name = cyl.info.name + ":joint " + std::string(m->names + m->name_jntadr[cyl.joint]) + " damping";
-    p.unit = m->jnt_type[cyl.joint] == mjJNT_HINGE ? "N m s/rad" : "N s/m";
-    p.initial = m->dof_damping[dof];
+    EffectParameter p = joint_parameter(cyl, &mjModel::dof_damping, "damping", "N m s/rad", "N s/m");
     p.lower = 0, p.upper = std::max(10 * MaxForce(m, cyl) * per_stroke_speed, 2 * p.initial);
     p.scale = 0.02 * MaxForce(m, cyl) * per_stroke_speed;
-    p.apply = [dof](mjModel* model, SignalModel*, double value) {
-      model->dof_damping[dof] = value;
-      return std::string();
-    };
     c->parameters.push_back(p);
   }, true);
   // leakage: orifices across the piston and from each chamber to the atmosphere (the turbulent form;
