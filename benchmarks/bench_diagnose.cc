@@ -26,9 +26,10 @@
 //   sensor_bias    offset and gain of the logged p_P                 -> offset and gain of one signal
 // Prints one line per case, the confusion matrix (true effect vs verdict) and the median held-out
 // shrink of the cases with an effect. Usage: bench_diagnose [--quick] [--rig A|B|C] [--case TEXT] [--duration S]
-// [--rate HZ] [--reference multisine|steps] [--verbose] (--case: only the truths whose label contains TEXT; --rate:
-// the controller's and the log's rate, 500 Hz by default; --reference steps: step changes of the reference instead of
-// the multi-sine; --verbose: the diagnosis' progress on stderr)
+// [--rate HZ] [--reference multisine|steps] [--no-supply-sensor] [--verbose] (--case: only the truths whose label
+// contains TEXT; --rate: the controller's and the log's rate, 500 Hz by default; --reference steps: step changes of the
+// reference instead of the multi-sine; --no-supply-sensor: the logs without their p_S column, as from a robot with no
+// supply pressure sensor; --verbose: the diagnosis' progress on stderr)
 // bench_diagnose --speed: the wall time of diagnosing one 20 s log of rig C (a laminar leak, the
 // documented default split: 70 % train, 30 % held out) logged at 500 Hz and at 1 kHz, on 2 threads.
 #include <algorithm>
@@ -273,7 +274,7 @@ bool DescribeRig(Rig* rig, std::string* valve, std::string* error_out) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  bool quick = false, speed = false, verbose = false;
+  bool quick = false, speed = false, verbose = false, supply_sensor = true;
   std::string only, only_case;
   double duration = 12, rate = 500;
   ReferenceShape shape = ReferenceShape::kMultiSine;
@@ -281,6 +282,7 @@ int main(int argc, char** argv) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
     else if (!std::strcmp(argv[i], "--speed")) speed = true;
     else if (!std::strcmp(argv[i], "--verbose")) verbose = true;
+    else if (!std::strcmp(argv[i], "--no-supply-sensor")) supply_sensor = false;
     else if (!std::strcmp(argv[i], "--rig") && i + 1 < argc) only = argv[++i];
     else if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only_case = argv[++i];
     else if (!std::strcmp(argv[i], "--duration") && i + 1 < argc) duration = std::atof(argv[++i]);
@@ -292,6 +294,9 @@ int main(int argc, char** argv) {
         return 2;
       }
       shape = name == "steps" ? ReferenceShape::kSteps : ReferenceShape::kMultiSine;
+    } else {
+      std::fprintf(stderr, "bench_diagnose: unknown argument '%s' (see the usage at the top of bench_diagnose.cc)\n", argv[i]);
+      return 2;
     }
   }
   pneumatic::benchmarks::PrintMachine(PNEUMATIC_BUILD_TYPE);
@@ -345,6 +350,14 @@ int main(int argc, char** argv) {
       if (!held) {
         std::printf("rig %s %-60s simulation failed: %s\n", rig.name.c_str(), truth.label.c_str(), error.c_str());
         continue;
+      }
+      if (!supply_sensor) {
+        for (pneumatic::log::Log* log : {&*train, &*held}) {
+          const int column = log->FindColumn("cyl", "p_S");
+          if (column < 0) continue;
+          log->columns.erase(log->columns.begin() + column);
+          log->values.erase(log->values.begin() + column);
+        }
       }
       dg::DiagnoseOptions o;
       if (verbose) o.progress = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };

@@ -59,6 +59,8 @@ double MaxForce(const mjModel* m, const CylinderSeries& c) {
 
 // the reservoir of the supply_drop candidate's tank form
 constexpr char kSupplyTank[] = "supply_tank";
+// the reservoirs of its logged form, one per cylinder: "logged_supply_<cylinder>"
+constexpr char kLoggedSupply[] = "logged_supply";
 
 std::string Replace(const std::string& text, size_t at, size_t length, const std::string& with) {
   return text.substr(0, at) + with + text.substr(at + length);
@@ -440,6 +442,57 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
       };
       c.parameters.push_back(tank("volume", "m^3", volume, 1.05 * chambers, 1000 * chambers));
       c.parameters.push_back(tank("line_conductance", "kg/(s Pa)", conductance, 1e-11, 1e-5));
+      out.push_back(std::move(c));
+    }
+  }
+  // supply_drop, third form: the logged supply pressure. A log's p_S column is the supply pressure
+  // measured (shared/spec/log_format.md); where it departs from the model's p_supply (it sags under
+  // flow, or sits lower), it gives the valves' supply directly, which the tank form can only
+  // estimate. The project's own form: each cylinder gets a reservoir of its own, sealed from the
+  // compressor, that the prediction sets to the logged p_S at every model step (prediction.h,
+  // SignalModel::logged_supply); one parameter, the p_S sensor's offset, up to 5 % of the supply's
+  // gauge range. Offered when every cylinder has p_S, the model feeds none from a reservoir, and
+  // some cylinder's p_S departs from its p_supply by more than 1 % of that range (the spread of its
+  // 5th to 95th percentile, or its median's distance): a sensor's noise alone spans less (500 Pa
+  // of noise, as on the rigs' pressure sensors, spans 1.6 kPa between those percentiles; 1 % of a
+  // 6.2e5 Pa supply's range is 5.2 kPa)
+  {
+    const std::vector<ReservoirInfo> reservoirs = Reservoirs(m);
+    bool every_cylinder_logged = reservoirs.empty(), departs = false;
+    double chambers = 0, gauge_range = 0;
+    for (const CylinderSeries& cyl : meas.cylinders) {
+      if (cyl.supply.empty()) every_cylinder_logged = false;
+      if (!every_cylinder_logged) break;
+      const std::string& n = cyl.info.name;
+      std::vector<double> sorted = cyl.supply;
+      std::sort(sorted.begin(), sorted.end());
+      auto percentile = [&](double q) { return sorted[static_cast<size_t>(q * static_cast<double>(sorted.size() - 1))]; };
+      const double range = cyl.info.p_supply - cyl.info.p_exhaust;
+      departs |= percentile(0.95) - percentile(0.05) > 0.01 * range ||
+                 std::fabs(percentile(0.5) - cyl.info.p_supply) > 0.01 * range;
+      gauge_range = std::max(gauge_range, range);
+      chambers = std::max(chambers, Parameter(m, n, "P.dead_volume", 0) + Parameter(m, n, "N.dead_volume", 0) +
+                                        (Parameter(m, n, "P.area", 0) + Parameter(m, n, "N.area", 0)) * cyl.stroke);
+    }
+    if (every_cylinder_logged && departs && chambers > 0) {
+      Candidate c{"supply_drop", "the logged supply pressure (p_S) at the valves", {}, {}, false};
+      // a reservoir far larger than the chambers (the step's stability condition), sealed: the
+      // prediction sets its pressure at every step, so neither key shapes what the valves see
+      const std::string volume = Number(std::min(1000 * chambers, 10.0));
+      for (const CylinderSeries& cyl : meas.cylinders) {
+        c.edits.push_back({cyl.info.name, {}, {}, {}, {}, std::string(kLoggedSupply) + "_" + cyl.info.name,
+                           {{"volume", volume}, {"line_conductance", "0"}}});
+      }
+      EffectParameter p;
+      p.name = "p_S:offset";
+      p.unit = "Pa";
+      p.initial = 0, p.lower = -0.05 * gauge_range, p.upper = 0.05 * gauge_range, p.scale = 0.01 * gauge_range;
+      p.apply = [](mjModel*, SignalModel* signals, double value) {
+        signals->logged_supply = true;
+        signals->supply_offset = value;
+        return std::string();
+      };
+      c.parameters.push_back(p);
       out.push_back(std::move(c));
     }
   }

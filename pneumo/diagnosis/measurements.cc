@@ -103,6 +103,7 @@ std::optional<Measurements> PrepareMeasurements(const mjModel* m, const log::Log
       c.command_names.push_back(signal);
       c.commands.push_back(u);
     }
+    if (int column = log.FindColumn(info.name, "p_S"); column >= 0) c.supply = log.values[column];
     c.velocity = EstimateVelocity(c.signal[kPosition], out.period, half);
     out.cylinders.push_back(std::move(c));
   }
@@ -118,6 +119,7 @@ Measurements SliceRows(const Measurements& all, int begin, int end) {
     for (std::vector<double>& s : c.signal) cut(s);
     cut(c.velocity);
     for (std::vector<double>& u : c.commands) cut(u);
+    if (!c.supply.empty()) cut(c.supply);
   }
   return out;
 }

@@ -30,6 +30,7 @@ struct CylinderSeries {
   std::vector<int> command_actuators;               // actuator ids ...
   std::vector<std::string> command_names;           // ... and their log signals ("uP", "u1", ...)
   std::vector<std::vector<double>> commands;        // [command][row]
+  std::vector<double> supply;                       // measured p_S (Pa abs) per row; empty when the log has none
 };
 
 struct Measurements {
@@ -50,7 +51,8 @@ struct Measurements {
 // p_P, p_N, x; rows uniformly spaced by a whole number of model timesteps; at least `min_rows`
 // rows; no command constant over the whole log (nothing would excite the model); no impossible
 // value (rollout.h CheckMeasurements, with FILE:LINE:COLUMN). A v column, if present, is ignored:
-// the velocity is always estimated from x, as it must be on a real robot. nullopt and *error
+// the velocity is always estimated from x, as it must be on a real robot. A p_S column, if
+// present, is kept (CylinderSeries::supply) for supply_drop's logged form. nullopt and *error
 // naming the file and what is wrong.
 std::optional<Measurements> PrepareMeasurements(const mjModel* m, const log::Log& log, int min_rows,
                                                 std::string* error);

@@ -8,6 +8,7 @@
 #include <limits>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include "prescribed_motion.h"
@@ -34,6 +35,13 @@ class WindowRunner {
       }
       line_act_.push_back(act);
     }
+    // the reservoir that feeds each cylinder, for the logged supply (SignalModel::logged_supply)
+    const std::vector<ReservoirInfo> reservoirs = Reservoirs(m_);
+    for (const CylinderSeries& cyl : meas_.cylinders) {
+      auto feeds = [&](const ReservoirInfo& r) { return std::find(r.cylinders.begin(), r.cylinders.end(), cyl.info.name) != r.cylinders.end(); };
+      auto r = std::find_if(reservoirs.begin(), reservoirs.end(), feeds);
+      supply_reservoir_.push_back(r == reservoirs.end() ? std::nullopt : std::optional<ReservoirInfo>(*r));
+    }
   }
 
   // predicts rows start+1 .. start+horizon into `out`, from `act` at the warm-up's first row if
@@ -56,6 +64,7 @@ class WindowRunner {
     for (int row = start; row < start + w.horizon_rows; ++row) {
       for (int k = 0; k < meas_.steps_per_row; ++k) {
         SetCommands(row, k);
+        SetLoggedSupply(row, k);
         if (kind_ == PredictionKind::kMechanical) HoldMeasuredPressures(row, static_cast<double>(k) / meas_.steps_per_row);
         if (kind_ == PredictionKind::kPneumatic) {
           FollowMeasuredMotion(row, k);
@@ -96,6 +105,7 @@ class WindowRunner {
     SetMeasuredState(row);
     for (int k = 0; k < meas_.steps_per_row; ++k) {
       SetCommands(row, k);
+      SetLoggedSupply(row, k);
       mj_step(m_, d_.get());
     }
   }
@@ -138,6 +148,20 @@ class WindowRunner {
         const std::vector<double>& u = cyl.commands[j];
         d_->ctrl[cyl.command_actuators[j]] = (1 - later) * u[first] + later * u[next];
       }
+    }
+  }
+
+  // with the logged supply, each fed cylinder's reservoir at the logged p_S (less the sensor's
+  // offset) at the start of step k of the row, on the straight line between the row's and the next
+  // row's values
+  void SetLoggedSupply(int row, int k) {
+    if (!signals_.logged_supply) return;
+    const double s = static_cast<double>(k) / meas_.steps_per_row;
+    const int next = std::min(row + 1, meas_.rows() - 1);
+    for (size_t c = 0; c < meas_.cylinders.size(); ++c) {
+      const std::vector<double>& p_s = meas_.cylinders[c].supply;
+      if (!supply_reservoir_[c] || p_s.empty()) continue;
+      SetReservoirPressure(m_, d_.get(), *supply_reservoir_[c], (1 - s) * p_s[row] + s * p_s[next] - signals_.supply_offset);
     }
   }
 
@@ -216,6 +240,7 @@ class WindowRunner {
   PredictionKind kind_;
   std::unique_ptr<mjData, void (*)(mjData*)> d_;
   std::vector<std::array<int, 2>> line_act_;  // per cylinder: the act of chamber P's, N's line, or -1
+  std::vector<std::optional<ReservoirInfo>> supply_reservoir_;  // per cylinder: the reservoir that feeds it, if any
 };
 
 }  // namespace
@@ -247,7 +272,7 @@ Windows MakeWindows(int rows, int horizon_rows, int warmup_rows) {
 }
 
 bool EstimatesOverTheHistory(const mjModel* m, const SignalModel& signals) {
-  return signals.history_estimate || !Reservoirs(m).empty();
+  return signals.history_estimate || (!Reservoirs(m).empty() && !signals.logged_supply);
 }
 
 Prediction Predict(const mjModel* m, const Measurements& meas, const SignalModel& sensors, const Windows& windows,

@@ -42,12 +42,18 @@ namespace pneumatic::diagnosis {
 //   them. Each model step gets the delayed commands' mean over the step, so a proportional valve's
 //   prediction is continuous in the delay (a fit can follow it between steps); an on/off valve,
 //   open at 1/2 or more, switches at the model step nearest the delayed switch.
+//   Supply (supply_drop's logged form, logged_supply): the valves of each cylinder see the logged
+//   p_S, less the p_S sensor's supply_offset, on the straight line between its rows; the model
+//   holds it in a reservoir that feeds the cylinder alone (the candidate adds it), set at every
+//   model step.
 struct SignalModel {
   std::vector<double> offset, gain, reference;
   std::vector<double> command_delay;  // s, per cylinder
   // the unmeasured states start each window from the history estimate (Predict) also in a model
   // without a reservoir: heat_transfer's second form sets it for its gas temperatures
   bool history_estimate = false;
+  bool logged_supply = false;
+  double supply_offset = 0;  // Pa
   static SignalModel Identity(const Measurements& meas);
   double Measured(int signal, double truth) const { return reference[signal] + offset[signal] + gain[signal] * (truth - reference[signal]); }
   double Truth(int signal, double measured) const { return reference[signal] + (measured - reference[signal] - offset[signal]) / gain[signal]; }
@@ -72,10 +78,11 @@ struct Prediction {
   std::string error;  // non-empty: the model diverged or refused the state; `simulated` is incomplete
 };
 
-// True if m has a state far slower than a warm-up, a supply reservoir, or the signal model asks
-// for it (SignalModel::history_estimate): Predict then estimates the unmeasured states over the
-// log's whole history, at the cost of one more simulation of the log (on a thread of its own when
-// there are two or more). A gas temperature (thermal_model=energy) relaxes over tenths of a second
+// True if m has a state far slower than a warm-up, a supply reservoir (unless the log gives its
+// pressure: SignalModel::logged_supply, whose candidate is offered only for a model without
+// reservoirs of its own), or the signal model asks for it (SignalModel::history_estimate): Predict
+// then estimates the unmeasured states over the log's whole history, at the cost of one more
+// simulation of the log (on a thread of its own when there are two or more). A gas temperature (thermal_model=energy) relaxes over tenths of a second
 // and gains too, but heat_transfer's first form leaves it to the warm-up: it is fitted in every
 // diagnosis round, and the history would cost it two to four times its fit (README); its second
 // form, fitted only in the rounds the first leads, asks for it.
