@@ -298,7 +298,7 @@ int main(int argc, char** argv) {
   CLI::App* diagnose = app.add_subcommand(
       "diagnose", "find where a model and a measured log part, which unmodelled effect explains it, and how far the gap shrinks");
   diagnose->add_option("model", diagnose_options.model_path, "MJCF model with pneumatic cylinders")->required();
-  diagnose->add_option("log", diagnose_options.train_path, "training log (shared/spec/log_format.md), closed loop, no v needed")
+  diagnose->add_option("log", diagnose_options.train_path, "training log (shared/spec/log_format.md), closed loop, no v needed; a p_S column, if any, is used as the supply pressure measured")
       ->required();
   diagnose->add_option("--heldout", diagnose_options.heldout_path,
                        "held-out log (default: the last 30 % of the training log is held out)");
