@@ -390,12 +390,12 @@ TEST(DiagnosisPrediction, TheLoggedSupplyFeedsTheValves) {
   ASSERT_TRUE(form);
   ModelPtr logged = LoadEditedModel(kRigC, form->edits, &error);
   ASSERT_TRUE(logged) << error;
-  auto evaluate = [&](const mjModel* m, const Measurements& meas, std::optional<double> offset) {
+  auto evaluate = [&](mjModel* m, const Measurements& meas, std::optional<double> offset) {
     GapOptions g;
     g.signal_scale = SignalScales(meas);
     g.windows = MakeWindows(meas.rows(), 100, 10);
     SignalModel signals = SignalModel::Identity(meas);
-    if (offset) EXPECT_EQ(form->parameters[0].apply(const_cast<mjModel*>(m), &signals, *offset), "");
+    if (offset) EXPECT_EQ(form->parameters[0].apply(m, &signals, *offset), "");
     Evaluated e = Evaluate(m, signals, meas, g);
     EXPECT_EQ(e.error, "");
     return e;
