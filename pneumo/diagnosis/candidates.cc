@@ -57,6 +57,14 @@ double MaxForce(const mjModel* m, const CylinderSeries& c) {
   return area * (c.info.p_supply - c.info.p_atm);
 }
 
+// the largest volume of a cylinder's two chambers together (m^3): both dead volumes and both areas
+// over the stroke, the volume a reservoir must exceed to feed it (plugin/README.md)
+double ChamberVolumes(const mjModel* m, const CylinderSeries& c) {
+  const std::string& n = c.info.name;
+  return Parameter(m, n, "P.dead_volume", 0) + Parameter(m, n, "N.dead_volume", 0) +
+         (Parameter(m, n, "P.area", 0) + Parameter(m, n, "N.area", 0)) * c.stroke;
+}
+
 // the reservoir of the supply_drop candidate's tank form
 constexpr char kSupplyTank[] = "supply_tank";
 // the reservoirs of its logged form, one per cylinder: "logged_supply_<cylinder>"
@@ -418,8 +426,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
         return std::find(r.cylinders.begin(), r.cylinders.end(), n) != r.cylinders.end();
       });
       if (fed) continue;  // a model with its own reservoir: the lower constant supply remains
-      chambers += Parameter(m, n, "P.dead_volume", 0) + Parameter(m, n, "N.dead_volume", 0) +
-                  (Parameter(m, n, "P.area", 0) + Parameter(m, n, "N.area", 0)) * cyl.stroke;
+      chambers += ChamberVolumes(m, cyl);
       c.edits.push_back({n, {}, {}, {}, {}, kSupplyTank, {}});
     }
     if (!c.edits.empty() && chambers > 0) {
@@ -463,7 +470,6 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
     for (const CylinderSeries& cyl : meas.cylinders) {
       if (cyl.supply.empty()) every_cylinder_logged = false;
       if (!every_cylinder_logged) break;
-      const std::string& n = cyl.info.name;
       std::vector<double> sorted = cyl.supply;
       std::sort(sorted.begin(), sorted.end());
       auto percentile = [&](double q) { return sorted[static_cast<size_t>(q * static_cast<double>(sorted.size() - 1))]; };
@@ -471,8 +477,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
       departs |= percentile(0.95) - percentile(0.05) > 0.01 * range ||
                  std::fabs(percentile(0.5) - cyl.info.p_supply) > 0.01 * range;
       gauge_range = std::max(gauge_range, range);
-      chambers = std::max(chambers, Parameter(m, n, "P.dead_volume", 0) + Parameter(m, n, "N.dead_volume", 0) +
-                                        (Parameter(m, n, "P.area", 0) + Parameter(m, n, "N.area", 0)) * cyl.stroke);
+      chambers = std::max(chambers, ChamberVolumes(m, cyl));
     }
     if (every_cylinder_logged && departs && chambers > 0) {
       Candidate c{"supply_drop", "the logged supply pressure (p_S) at the valves", {}, {}, false};
