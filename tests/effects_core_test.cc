@@ -360,7 +360,9 @@ TEST_P(ReservoirSteps, DrawnDownReservoirRefillsAtTheRateItsLineAllows) {
   mjData* d = mj_makeData(m);
   const ReservoirInfo tank = Reservoirs(m).at(0);
   const double p0 = 1.5e5, k = kR * kT / 1e-4, c = 1e-9, b = 0.433;
-  SetReservoirPressure(m, d, tank, p0);
+  // set through the cylinder it feeds (pneumatic.h SetSupplyPressure): the same state
+  ASSERT_TRUE(SetSupplyPressure(m, d, Cylinders(m).at(0), p0));
+  ASSERT_EQ(ReservoirPressure(m, d, tank), p0);
   const double choked_rate = k * c * kSupply;
   ASSERT_NEAR(choked_rate, 5.097e5, 1e2);
   // the choked phase
@@ -408,6 +410,12 @@ TEST_P(ReservoirSteps, AReservoirSharedByTwoCylindersSagsMore) {
     mjData* d = mj_makeData(m);
     const ReservoirInfo tank = Reservoirs(m).at(0);
     EXPECT_EQ(tank.cylinders.size(), shared ? 2u : 1u);
+    if (!shared) {
+      const std::vector<mjtNum> act(d->act, d->act + m->na);
+      EXPECT_FALSE(SetSupplyPressure(m, d, Cylinders(m).at(1), 5e5)) << "fed by the compressor: no state to set";
+      EXPECT_EQ(std::vector<mjtNum>(d->act, d->act + m->na), act) << "nothing written";
+      EXPECT_EQ(SupplyPressure(m, d, Cylinders(m).at(1)), kSupply);
+    }
     lowest[shared] = kSupply;
     for (const CylinderInfo& c : Cylinders(m)) {
       d->ctrl[c.command_actuators[0].second] = 1;  // u1: P to supply

@@ -371,13 +371,18 @@ TEST(LineDynamics, ASupplyStepReachesTheChamberWithTheLinesTimeConstant) {
     s.timestep = timestep;
     Model model(Xml(s));
     ASSERT_TRUE(model.ok()) << model.error();
-    model.Act("cyl.LP") = line0 - p_atm;
+    // the line's state through the public API (pneumatic.h): chamber P's line, none at chamber N
+    const CylinderInfo info = Cylinders(model.m()).at(0);
+    ASSERT_TRUE(SetLinePressure(model.m(), model.d(), info, Chamber::kP, line0));
+    EXPECT_EQ(model.Act("cyl.LP"), line0 - p_atm);
+    EXPECT_FALSE(SetLinePressure(model.m(), model.d(), info, Chamber::kN, line0)) << "chamber N has no line";
+    EXPECT_FALSE(LinePressure(model.m(), model.d(), info, Chamber::kN).has_value());
     model.Ctrl("cyl.u1") = 1;
     double worst_line = 0, worst_chamber = 0;
     for (double until : {0.001, 0.002, 0.005, 0.008}) {
       while (model.d()->time < until - 1e-9) mj_step(model.m(), model.d());
       double t = model.d()->time, decay = std::exp(-t / tau);
-      double line = model.Act("cyl.LP") + p_atm;
+      double line = LinePressure(model.m(), model.d(), info, Chamber::kP).value();
       double chamber = model.P(Chamber::kP);
       double expected_line = p_inf + (line0 - p_inf) * decay;
       double expected = p_atm + n * kR * kT * c_r / v * (p_inf * t + (line0 - p_inf) * tau * (1 - decay));

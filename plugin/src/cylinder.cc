@@ -294,6 +294,7 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
     if (std::string problem = StateActuatorProblem(m, id, r); !problem.empty()) return fail(full, problem);
     if (r.index < 0 || r.index >= kMaxExtraStates) mju_error("pneumatic: role table: extra-state slot out of range");
     c.extra_state_id_[r.index] = id;
+    if (r.index == kLineP || r.index == kLineN) c.info_.line_actuator[r.index - kLineP] = id;
     c.has_extra_states_ = true;
     c.actuators_.push_back({id, {Role::kState, -1, r.index}});
   }
@@ -784,6 +785,19 @@ double ChamberPressure(const mjModel* m, const mjData* d, const CylinderInfo& c,
 
 void SetChamberPressure(const mjModel* m, mjData* d, const CylinderInfo& c, Chamber k, double pressure) {
   d->act[ActIndex(m, c.chamber_actuator[static_cast<int>(k)])] = pressure - c.p_atm;
+}
+
+std::optional<double> LinePressure(const mjModel* m, const mjData* d, const CylinderInfo& c, Chamber k) {
+  const int id = c.line_actuator[static_cast<int>(k)];
+  if (id < 0) return std::nullopt;
+  return Act(m, d, id) + c.p_atm;
+}
+
+bool SetLinePressure(const mjModel* m, mjData* d, const CylinderInfo& c, Chamber k, double pressure) {
+  const int id = c.line_actuator[static_cast<int>(k)];
+  if (id < 0) return false;
+  d->act[ActIndex(m, id)] = pressure - c.p_atm;
+  return true;
 }
 
 }  // namespace pneumatic

@@ -677,6 +677,12 @@ double SupplyPressure(const mjModel* m, const mjData* d, const CylinderInfo& c) 
   return d->act[ActIndex(m, c.supply_actuator)] + c.p_supply;  // a reservoir's p_source is its cylinders' p_supply
 }
 
+bool SetSupplyPressure(const mjModel* m, mjData* d, const CylinderInfo& c, double pressure) {
+  if (c.supply_actuator < 0) return false;
+  d->act[ActIndex(m, c.supply_actuator)] = pressure - c.p_supply;
+  return true;
+}
+
 namespace {
 
 // the index of cylinder `name` in an attached model, or -1 and *error

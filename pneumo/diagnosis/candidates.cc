@@ -418,16 +418,11 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
   // history (prediction.h)
   {
     Candidate c{"supply_drop", "a supply tank behind a restrictive line, feeding every cylinder", {}, {}, true};
-    const std::vector<ReservoirInfo> reservoirs = Reservoirs(m);
     double chambers = 0;  // the largest volume of the chambers the tank feeds together (its lower bound)
     for (const CylinderSeries& cyl : meas.cylinders) {
-      const std::string& n = cyl.info.name;
-      const bool fed = std::any_of(reservoirs.begin(), reservoirs.end(), [&](const ReservoirInfo& r) {
-        return std::find(r.cylinders.begin(), r.cylinders.end(), n) != r.cylinders.end();
-      });
-      if (fed) continue;  // a model with its own reservoir: the lower constant supply remains
+      if (cyl.info.supply_actuator >= 0) continue;  // a model with its own reservoir: the lower constant supply remains
       chambers += ChamberVolumes(m, cyl);
-      c.edits.push_back({n, {}, {}, {}, {}, kSupplyTank, {}});
+      c.edits.push_back({cyl.info.name, {}, {}, {}, {}, kSupplyTank, {}});
     }
     if (!c.edits.empty() && chambers > 0) {
       // bounds: a tank from just above the chambers' volume (the reservoir step's stability

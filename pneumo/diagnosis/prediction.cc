@@ -1,14 +1,12 @@
 #include "diagnosis/prediction.h"
 
 #include <algorithm>
-#include <array>
 #include <atomic>
 #include <cmath>
 #include <condition_variable>
 #include <limits>
 #include <memory>
 #include <mutex>
-#include <optional>
 #include <thread>
 
 #include "prescribed_motion.h"
@@ -27,20 +25,13 @@ class WindowRunner {
  public:
   WindowRunner(const mjModel* m, const Measurements& meas, const SignalModel& signals, PredictionKind kind)
       : m_(m), meas_(meas), signals_(signals), kind_(kind), d_(mj_makeData(m), mj_deleteData) {
+    // the cylinders as the model being predicted has them (its lines, the reservoir that feeds each),
+    // in the log's order
+    const std::vector<CylinderInfo> cylinders = Cylinders(m_);
     for (const CylinderSeries& cyl : meas_.cylinders) {
-      std::array<int, 2> act = {-1, -1};  // "<cylinder>.LP", ".LN": act = p_line - p_atm (plugin/README.md)
-      for (int k : {0, 1}) {
-        const int id = mj_name2id(m_, mjOBJ_ACTUATOR, (cyl.info.name + (k == 0 ? ".LP" : ".LN")).c_str());
-        if (id >= 0) act[k] = id - (m_->nu - m_->na);
-      }
-      line_act_.push_back(act);
-    }
-    // the reservoir that feeds each cylinder, for the logged supply (SignalModel::logged_supply)
-    const std::vector<ReservoirInfo> reservoirs = Reservoirs(m_);
-    for (const CylinderSeries& cyl : meas_.cylinders) {
-      auto feeds = [&](const ReservoirInfo& r) { return std::find(r.cylinders.begin(), r.cylinders.end(), cyl.info.name) != r.cylinders.end(); };
-      auto r = std::find_if(reservoirs.begin(), reservoirs.end(), feeds);
-      supply_reservoir_.push_back(r == reservoirs.end() ? std::nullopt : std::optional<ReservoirInfo>(*r));
+      auto same = [&](const CylinderInfo& c) { return c.name == cyl.info.name; };
+      auto found = std::find_if(cylinders.begin(), cylinders.end(), same);
+      cylinders_.push_back(found != cylinders.end() ? *found : cyl.info);  // an edit keeps every cylinder
     }
   }
 
@@ -121,8 +112,8 @@ class WindowRunner {
     for (size_t c = 0; c < meas_.cylinders.size(); ++c) {
       const int base = kSignalsPerCylinder * static_cast<int>(c);
       for (int k : {0, 1}) {
-        const int act = line_act_[c][k];
-        if (act >= 0) d_->act[act] = TrueValue(meas_, signals_, base + (k == 0 ? kPressureP : kPressureN), row) - meas_.cylinders[c].info.p_atm;
+        SetLinePressure(m_, d_.get(), cylinders_[c], static_cast<Chamber>(k),
+                        TrueValue(meas_, signals_, base + (k == 0 ? kPressureP : kPressureN), row));
       }
     }
   }
@@ -160,8 +151,8 @@ class WindowRunner {
     const int next = std::min(row + 1, meas_.rows() - 1);
     for (size_t c = 0; c < meas_.cylinders.size(); ++c) {
       const std::vector<double>& p_s = meas_.cylinders[c].supply;
-      if (!supply_reservoir_[c] || p_s.empty()) continue;
-      SetReservoirPressure(m_, d_.get(), *supply_reservoir_[c], (1 - s) * p_s[row] + s * p_s[next] - signals_.supply_offset);
+      if (p_s.empty()) continue;
+      SetSupplyPressure(m_, d_.get(), cylinders_[c], (1 - s) * p_s[row] + s * p_s[next] - signals_.supply_offset);
     }
   }
 
@@ -177,8 +168,8 @@ class WindowRunner {
     for (size_t c = 0; c < meas_.cylinders.size(); ++c) {
       const CylinderSeries& cyl = meas_.cylinders[c];
       const int base = kSignalsPerCylinder * static_cast<int>(c);
-      SetChamberPressure(m_, d, cyl.info, Chamber::kP, TrueValue(meas_, signals_, base + kPressureP, row));
-      SetChamberPressure(m_, d, cyl.info, Chamber::kN, TrueValue(meas_, signals_, base + kPressureN, row));
+      SetChamberPressure(m_, d, cylinders_[c], Chamber::kP, TrueValue(meas_, signals_, base + kPressureP, row));
+      SetChamberPressure(m_, d, cylinders_[c], Chamber::kN, TrueValue(meas_, signals_, base + kPressureN, row));
       const double x = TrueValue(meas_, signals_, base + kPosition, row);
       d->qpos[m_->jnt_qposadr[cyl.joint]] = (x + cyl.info.x_mid) / cyl.gear;
       d->qvel[m_->jnt_dofadr[cyl.joint]] = cyl.velocity[row] / signals_.gain[base + kPosition] / cyl.gear;
@@ -188,12 +179,11 @@ class WindowRunner {
   // chamber pressures on the straight line between the row's and the next row's measurements
   void HoldMeasuredPressures(int row, double s) {
     for (size_t c = 0; c < meas_.cylinders.size(); ++c) {
-      const CylinderSeries& cyl = meas_.cylinders[c];
       const int base = kSignalsPerCylinder * static_cast<int>(c);
       for (int k : {kPressureP, kPressureN}) {
         const int next = std::min(row + 1, meas_.rows() - 1);
         const double p = (1 - s) * TrueValue(meas_, signals_, base + k, row) + s * TrueValue(meas_, signals_, base + k, next);
-        SetChamberPressure(m_, d_.get(), cyl.info, k == kPressureP ? Chamber::kP : Chamber::kN, p);
+        SetChamberPressure(m_, d_.get(), cylinders_[c], k == kPressureP ? Chamber::kP : Chamber::kN, p);
       }
     }
   }
@@ -224,7 +214,7 @@ class WindowRunner {
     for (size_t c = 0; c < meas_.cylinders.size(); ++c) {
       const CylinderSeries& cyl = meas_.cylinders[c];
       const int base = kSignalsPerCylinder * static_cast<int>(c);
-      const double truth[3] = {ChamberPressure(m_, d, cyl.info, Chamber::kP), ChamberPressure(m_, d, cyl.info, Chamber::kN),
+      const double truth[3] = {ChamberPressure(m_, d, cylinders_[c], Chamber::kP), ChamberPressure(m_, d, cylinders_[c], Chamber::kN),
                                cyl.gear * d->qpos[m_->jnt_qposadr[cyl.joint]] - cyl.info.x_mid};
       for (int k = 0; k < kSignalsPerCylinder; ++k) {
         const bool predicted = kind_ == PredictionKind::kFull || (kind_ == PredictionKind::kPneumatic && k != kPosition) ||
@@ -239,8 +229,7 @@ class WindowRunner {
   const SignalModel& signals_;
   PredictionKind kind_;
   std::unique_ptr<mjData, void (*)(mjData*)> d_;
-  std::vector<std::array<int, 2>> line_act_;  // per cylinder: the act of chamber P's, N's line, or -1
-  std::vector<std::optional<ReservoirInfo>> supply_reservoir_;  // per cylinder: the reservoir that feeds it, if any
+  std::vector<CylinderInfo> cylinders_;  // per cylinder of the log: its actuators in m_ (chambers, lines, supply)
 };
 
 }  // namespace

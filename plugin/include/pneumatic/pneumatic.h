@@ -101,6 +101,9 @@ struct CylinderInfo {
   // supply=<reservoir>: that reservoir's "<reservoir>.pressure" actuator (act = p - p_supply), or -1
   // for a cylinder fed at p_supply
   int supply_actuator = -1;
+  // line_volume > 0: the actuators "<name>.LP", "<name>.LN" holding chamber P's, N's line pressure
+  // (act = p_line - p_atm), or -1 for a chamber the valve feeds directly
+  int line_actuator[2] = {-1, -1};
 };
 
 // The cylinders of an attached model (empty if m is not attached).
@@ -135,10 +138,20 @@ int DrivenJoint(const mjModel* m, const CylinderInfo& c);
 // d->act) when one feeds it, else p_supply.
 double SupplyPressure(const mjModel* m, const mjData* d, const CylinderInfo& c);
 
+// Sets the pressure (Pa abs) of the reservoir that feeds the cylinder, as SetReservoirPressure does
+// (the reservoir's other cylinders see it too); false, and nothing written, for a cylinder fed at
+// the constant p_supply.
+bool SetSupplyPressure(const mjModel* m, mjData* d, const CylinderInfo& c, double pressure);
+
 // Absolute chamber pressure (Pa) read from, or written to, d->act.
 double ChamberPressure(const mjModel* m, const mjData* d, const CylinderInfo& c, Chamber k);
 void SetChamberPressure(const mjModel* m, mjData* d, const CylinderInfo& c, Chamber k,
                         double pressure);
+
+// Absolute pressure (Pa) in chamber k's line (line_volume > 0), read from, or written to, d->act;
+// nullopt, or false and nothing written, for a chamber without a line.
+std::optional<double> LinePressure(const mjModel* m, const mjData* d, const CylinderInfo& c, Chamber k);
+bool SetLinePressure(const mjModel* m, mjData* d, const CylinderInfo& c, Chamber k, double pressure);
 
 // One documented parameter of the MJCF configuration, for documentation and
 // tools ("pneumo params").
