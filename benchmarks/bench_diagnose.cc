@@ -23,7 +23,7 @@
 //   payload        a heavier moving body                              -> added mass
 //   line_dynamics  tube volume and restriction; for the proportional   -> tube volume and restriction;
 //                  valves also with a 3 ms transport delay (line_delay)     richer: with the delay
-//   sensor_bias    offset and gain of the logged p_P                 -> offset and gain of one signal
+//   sensor_bias    offset and gain of the logged p_P, or of x        -> offset and gain of one signal
 // Prints one line per case, the confusion matrix (true effect vs verdict) and the median held-out
 // shrink of the cases with an effect. Usage: bench_diagnose [--quick] [--rig A|B|C] [--case TEXT] [--duration S]
 // [--rate HZ] [--reference multisine|steps] [--no-supply-sensor] [--verbose] (--case: only the truths whose label
@@ -66,13 +66,16 @@ struct Rig {
   double valve_conductance = 0; // kg/(s Pa): the valve's port wide open, as an ISO 6358 sonic conductance
 };
 
-// the truth: MJCF edits, model fields, and a sensor bias on the logged p_P
+// the truth: MJCF edits, model fields, and a sensor bias on one logged signal
 struct Truth {
   std::string label;                 // what is switched on
   std::vector<std::string> effects;  // effects.md names
   std::vector<dg::ModelEdit> edits;
   double added_mass = 0;             // kg on the piston body
-  double p_offset = 0, p_gain = 1;   // logged p_P = p_atm + offset + gain (p - p_atm)
+  // sensor_bias: the logged `biased` signal is zero + offset + gain (s - zero), zero = p_atm for a
+  // pressure, 0 for x (mid-stroke)
+  std::string biased = "p_P";
+  double offset = 0, gain = 1;
   double command_delay = 0;          // s: the valves get the logged commands this late (whole ticks)
 };
 
@@ -145,10 +148,10 @@ std::optional<pneumatic::log::Log> Simulate(const Rig& rig, const Truth& truth, 
     *error = r.error;
     return std::nullopt;
   }
-  if (truth.p_offset != 0 || truth.p_gain != 1) {
-    const int c = r.log->FindColumn("cyl", "p_P");
-    const double p_atm = pneumatic::Cylinders(m.get())[0].p_atm;
-    for (double& p : r.log->values[c]) p = p_atm + truth.p_offset + truth.p_gain * (p - p_atm);
+  if (truth.offset != 0 || truth.gain != 1) {
+    const int c = r.log->FindColumn("cyl", truth.biased);
+    const double zero = truth.biased == "x" ? 0 : pneumatic::Cylinders(m.get())[0].p_atm;
+    for (double& v : r.log->values[static_cast<size_t>(c)]) v = zero + truth.offset + truth.gain * (v - zero);
   }
   r.log->source = rig.name + " " + truth.label + " seed " + std::to_string(seed);
   return r.log;
@@ -246,8 +249,11 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
     t.push_back({"supply manifold of 5 chamber volumes behind a hose (b = 0.9)", {"supply_drop"}, {hose}});
   }
   t.push_back({"payload: mass x 5", {"payload"}, {}, 4 * rig.mass});
-  t.push_back({"p_P sensor offset 15 kPa, gain 1.03", {"sensor_bias"}, {}, 0, 15000, 1.03});
-  t.push_back({"payload (mass x 5) and p_P sensor offset 15 kPa", {"payload", "sensor_bias"}, {}, 4 * rig.mass, 15000, 1.03});
+  t.push_back({"p_P sensor offset 15 kPa, gain 1.03", {"sensor_bias"}, {}, 0, "p_P", 15000, 1.03});
+  // a position sensor mounted off by 3 % of the stroke, its gain 2 % high: the chambers' volumes
+  // the model computes from the logged x are off, and the end stops seem moved
+  t.push_back({"x sensor offset 3 % of the stroke, gain 1.02", {"sensor_bias"}, {}, 0, "x", 0.03 * rig.stroke, 1.02});
+  t.push_back({"payload (mass x 5) and p_P sensor offset 15 kPa", {"payload", "sensor_bias"}, {}, 4 * rig.mass, "p_P", 15000, 1.03});
   return t;
 }
 
