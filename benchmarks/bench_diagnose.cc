@@ -26,10 +26,11 @@
 //   sensor_bias    offset and gain of the logged p_P, or of x        -> offset and gain of one signal
 // Prints one line per case, the confusion matrix (true effect vs verdict) and the median held-out
 // shrink of the cases with an effect. Usage: bench_diagnose [--quick] [--rig A|B|C] [--case TEXT] [--duration S]
-// [--rate HZ] [--reference multisine|steps] [--no-supply-sensor] [--verbose] (--case: only the truths whose label
-// contains TEXT; --rate: the controller's and the log's rate, 500 Hz by default; --reference steps: step changes of the
-// reference instead of the multi-sine; --no-supply-sensor: the logs without their p_S column, as from a robot with no
-// supply pressure sensor; --verbose: the diagnosis' progress on stderr)
+// [--rate HZ] [--noise K] [--reference multisine|steps] [--no-supply-sensor] [--verbose] (--case: only the truths whose
+// label contains TEXT; --rate: the controller's and the log's rate, 500 Hz by default; --noise K: K times the sensor
+// noise (500 Pa, 0.05 mm); --reference steps: step changes of the reference instead of the multi-sine;
+// --no-supply-sensor: the logs without their p_S column, as from a robot with no supply pressure sensor; --verbose:
+// the diagnosis' progress on stderr)
 // bench_diagnose --speed: the wall time of diagnosing one 20 s log of rig C (a laminar leak, the
 // documented default split: 70 % train, 30 % held out) logged at 500 Hz and at 1 kHz, on 2 threads.
 #include <algorithm>
@@ -120,7 +121,7 @@ pneumatic::log::Log Reference(const Rig& rig, std::uint64_t seed, double duratio
 
 std::optional<pneumatic::log::Log> Simulate(const Rig& rig, const Truth& truth, std::uint64_t seed, double duration,
                                             std::string* error, double control_rate = 500,
-                                            ReferenceShape shape = ReferenceShape::kMultiSine) {
+                                            ReferenceShape shape = ReferenceShape::kMultiSine, double noise_scale = 1) {
   dg::ModelPtr m = dg::LoadEditedModel(rig.file, truth.edits, error);
   if (!m) return std::nullopt;
   if (truth.added_mass != 0) {
@@ -140,8 +141,8 @@ std::optional<pneumatic::log::Log> Simulate(const Rig& rig, const Truth& truth, 
   o.controller = "pid";
   o.reference = &ref;
   o.seed = seed;
-  o.noise_pressure = 500;   // Pa
-  o.noise_position = 5e-5;  // m
+  o.noise_pressure = 500 * noise_scale;   // Pa
+  o.noise_position = 5e-5 * noise_scale;  // m
   o.command_delay_ticks = static_cast<int>(std::lround(truth.command_delay * control_rate));
   pneumatic::ClosedLoopResult r = pneumatic::RunClosedLoop(m.get(), o);
   if (!r.log) {
@@ -254,6 +255,17 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
   // the model computes from the logged x are off, and the end stops seem moved
   t.push_back({"x sensor offset 3 % of the stroke, gain 1.02", {"sensor_bias"}, {}, 0, "x", 0.03 * rig.stroke, 1.02});
   t.push_back({"payload (mass x 5) and p_P sensor offset 15 kPa", {"payload", "sensor_bias"}, {}, 4 * rig.mass, "p_P", 15000, 1.03});
+  // two effects, one on each side of paper 000 II.5's split: the seal's LuGre friction (the first
+  // friction truth) and the laminar leak (the first leakage truth), both on
+  auto first = [&](const std::string& prefix) {
+    return *std::find_if(t.begin(), t.end(), [&](const Truth& x) { return x.label.rfind(prefix, 0) == 0; });
+  };
+  if (HasKey("friction_model")) {
+    const Truth friction = first("LuGre friction"), leak = first("laminar leak");
+    Truth both{friction.label + " and a " + leak.label, {"friction", "leakage"}, friction.edits};
+    both.edits.insert(both.edits.end(), leak.edits.begin(), leak.edits.end());
+    t.push_back(both);
+  }
   return t;
 }
 
@@ -282,7 +294,7 @@ bool DescribeRig(Rig* rig, std::string* valve, std::string* error_out) {
 int main(int argc, char** argv) {
   bool quick = false, speed = false, verbose = false, supply_sensor = true;
   std::string only, only_case;
-  double duration = 12, rate = 500;
+  double duration = 12, rate = 500, noise_scale = 1;
   ReferenceShape shape = ReferenceShape::kMultiSine;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
@@ -293,6 +305,13 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only_case = argv[++i];
     else if (!std::strcmp(argv[i], "--duration") && i + 1 < argc) duration = std::atof(argv[++i]);
     else if (!std::strcmp(argv[i], "--rate") && i + 1 < argc) rate = std::atof(argv[++i]);
+    else if (!std::strcmp(argv[i], "--noise") && i + 1 < argc) {
+      noise_scale = std::atof(argv[++i]);
+      if (!(noise_scale >= 0 && std::isfinite(noise_scale))) {
+        std::fprintf(stderr, "--noise: expected a factor >= 0, got '%s'\n", argv[i]);
+        return 2;
+      }
+    }
     else if (!std::strcmp(argv[i], "--reference") && i + 1 < argc) {
       const std::string name = argv[++i];
       if (name != "multisine" && name != "steps") {
@@ -351,8 +370,8 @@ int main(int argc, char** argv) {
     for (const Truth& truth : truths) {
       if (!only_case.empty() && truth.label.find(only_case) == std::string::npos) continue;
       const auto t0 = std::chrono::steady_clock::now();
-      std::optional<pneumatic::log::Log> train = Simulate(rig, truth, 1, duration, &error, rate, shape);
-      std::optional<pneumatic::log::Log> held = train ? Simulate(rig, truth, 2, duration, &error, rate, shape) : std::nullopt;
+      std::optional<pneumatic::log::Log> train = Simulate(rig, truth, 1, duration, &error, rate, shape, noise_scale);
+      std::optional<pneumatic::log::Log> held = train ? Simulate(rig, truth, 2, duration, &error, rate, shape, noise_scale) : std::nullopt;
       if (!held) {
         std::printf("rig %s %-60s simulation failed: %s\n", rig.name.c_str(), truth.label.c_str(), error.c_str());
         continue;
