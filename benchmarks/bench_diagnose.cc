@@ -37,8 +37,10 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <map>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -255,8 +257,8 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
   // the model computes from the logged x are off, and the end stops seem moved
   t.push_back({"x sensor offset 3 % of the stroke, gain 1.02", {"sensor_bias"}, {}, 0, "x", 0.03 * rig.stroke, 1.02});
   t.push_back({"payload (mass x 5) and p_P sensor offset 15 kPa", {"payload", "sensor_bias"}, {}, 4 * rig.mass, "p_P", 15000, 1.03});
-  // two effects, one on each side of paper 000 II.5's split: the seal's LuGre friction (the first
-  // friction truth) and the laminar leak (the first leakage truth), both on
+  // two effects together, one on each side of paper 000 II.5's split: the seal's LuGre friction
+  // (the first friction truth) and the laminar leak (the first leakage truth)
   auto first = [&](const std::string& prefix) {
     return *std::find_if(t.begin(), t.end(), [&](const Truth& x) { return x.label.rfind(prefix, 0) == 0; });
   };
@@ -303,16 +305,19 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--no-supply-sensor")) supply_sensor = false;
     else if (!std::strcmp(argv[i], "--rig") && i + 1 < argc) only = argv[++i];
     else if (!std::strcmp(argv[i], "--case") && i + 1 < argc) only_case = argv[++i];
-    else if (!std::strcmp(argv[i], "--duration") && i + 1 < argc) duration = std::atof(argv[++i]);
-    else if (!std::strcmp(argv[i], "--rate") && i + 1 < argc) rate = std::atof(argv[++i]);
-    else if (!std::strcmp(argv[i], "--noise") && i + 1 < argc) {
-      noise_scale = std::atof(argv[++i]);
-      if (!(noise_scale >= 0 && std::isfinite(noise_scale))) {
-        std::fprintf(stderr, "--noise: expected a factor >= 0, got '%s'\n", argv[i]);
+    else if (!std::strcmp(argv[i], "--duration") || !std::strcmp(argv[i], "--rate") || !std::strcmp(argv[i], "--noise")) {
+      // a finite number, positive (a duration, a rate) or at least 0 (a noise factor)
+      const std::string option = argv[i];
+      const char* text = i + 1 < argc ? argv[++i] : "";
+      char* end = nullptr;
+      const double value = std::strtod(text, &end);
+      const bool zero_allowed = option == "--noise";
+      if (end == text || *end != '\0' || !std::isfinite(value) || value < 0 || (value == 0 && !zero_allowed)) {
+        std::fprintf(stderr, "%s: expected a number %s, got '%s'\n", option.c_str(), zero_allowed ? ">= 0" : "> 0", text);
         return 2;
       }
-    }
-    else if (!std::strcmp(argv[i], "--reference") && i + 1 < argc) {
+      (option == "--duration" ? duration : option == "--rate" ? rate : noise_scale) = value;
+    } else if (!std::strcmp(argv[i], "--reference") && i + 1 < argc) {
       const std::string name = argv[++i];
       if (name != "multisine" && name != "steps") {
         std::fprintf(stderr, "--reference: expected multisine or steps, got '%s'\n", name.c_str());
