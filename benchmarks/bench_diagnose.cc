@@ -37,7 +37,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <cstring>
 #include <map>
 #include <optional>
@@ -48,6 +47,7 @@
 #include "closed_loop.h"
 #include "diagnosis/candidates.h"
 #include "diagnosis/diagnose.h"
+#include "key_value_text.h"
 #include "machine.h"
 #include "pneumatic/pneumatic.h"
 
@@ -308,12 +308,11 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--duration") || !std::strcmp(argv[i], "--rate") || !std::strcmp(argv[i], "--noise")) {
       // a finite number, positive (a duration, a rate) or at least 0 (a noise factor)
       const std::string option = argv[i];
-      const char* text = i + 1 < argc ? argv[++i] : "";
-      char* end = nullptr;
-      const double value = std::strtod(text, &end);
+      const std::string text = i + 1 < argc ? argv[++i] : "";
+      double value = 0;
       const bool zero_allowed = option == "--noise";
-      if (end == text || *end != '\0' || !std::isfinite(value) || value < 0 || (value == 0 && !zero_allowed)) {
-        std::fprintf(stderr, "%s: expected a number %s, got '%s'\n", option.c_str(), zero_allowed ? ">= 0" : "> 0", text);
+      if (!pneumatic::ParseNumber(text, &value) || !std::isfinite(value) || value < 0 || (value == 0 && !zero_allowed)) {
+        std::fprintf(stderr, "%s: expected a number %s, got '%s'\n", option.c_str(), zero_allowed ? ">= 0" : "> 0", text.c_str());
         return 2;
       }
       (option == "--duration" ? duration : option == "--rate" ? rate : noise_scale) = value;
