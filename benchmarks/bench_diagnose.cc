@@ -20,10 +20,11 @@
 //   supply_drop    a shared reservoir behind a restrictive line      -> a lower constant supply pressure, or
 //                  (the candidate's own form), or a small manifold      a tank behind a restrictive line
 //                  behind a hose of another law
-//   payload        a heavier moving body                              -> added mass
+//   payload        a moving body 5 or 2 times heavier                 -> added mass
 //   line_dynamics  tube volume and restriction; for the proportional   -> tube volume and restriction;
 //                  valves also with a 3 ms transport delay (line_delay)     richer: with the delay
-//   sensor_bias    offset and gain of the logged p_P, or of x        -> offset and gain of one signal
+//   sensor_bias    offset and gain of the logged p_P, or of x; an    -> offset and gain of one signal
+//                  offset alone of p_N
 // Prints one line per case, the confusion matrix (true effect vs verdict) and the median held-out
 // shrink of the cases with an effect. Usage: bench_diagnose [--quick] [--rig A|B|C] [--case TEXT] [--duration S]
 // [--rate HZ] [--noise K] [--reference multisine|steps] [--no-supply-sensor] [--verbose] (--case: only the truths whose
@@ -252,7 +253,11 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
     t.push_back({"supply manifold of 5 chamber volumes behind a hose (b = 0.9)", {"supply_drop"}, {hose}});
   }
   t.push_back({"payload: mass x 5", {"payload"}, {}, 4 * rig.mass});
+  // a payload as large as the moving mass itself: a fifth of the force the mass x 5 case shows
+  t.push_back({"payload: mass x 2", {"payload"}, {}, rig.mass});
   t.push_back({"p_P sensor offset 15 kPa, gain 1.03", {"sensor_bias"}, {}, 0, "p_P", 15000, 1.03});
+  // the other chamber's sensor, an offset alone (a zero drift), on the low side
+  t.push_back({"p_N sensor offset -10 kPa", {"sensor_bias"}, {}, 0, "p_N", -10000, 1});
   // a position sensor mounted off by 3 % of the stroke, its gain 2 % high: the chambers' volumes
   // the model computes from the logged x are off, and the end stops seem moved
   t.push_back({"x sensor offset 3 % of the stroke, gain 1.02", {"sensor_bias"}, {}, 0, "x", 0.03 * rig.stroke, 1.02});

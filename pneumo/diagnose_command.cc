@@ -99,7 +99,13 @@ std::string Html(const dg::Diagnosis& d, const DiagnoseCommandOptions& o) {
     << Format("%.1f", 100 * (d.heldout_gap_before - d.heldout_gap_after) / d.heldout_gap_before) << " % smaller)</div>\n";
   h << "<p>The gap is the normalised RMS of short-horizon predictions (" << Format("%.3g", o.diagnose.horizon_s)
     << " s windows restarted from the measured state) over the pressure and position signals, each divided by its "
-       "standard deviation in the training log (README, &ldquo;Diagnosis&rdquo;).</p>\n";
+       "standard deviation in the training log (README, &ldquo;Diagnosis&rdquo;). "
+    << (std::isnan(d.discretisation_gap)
+            ? std::string("The model's own discretisation error is not known (its prediction at a quarter of its timestep failed).")
+            : "The model's own discretisation error (its prediction at its timestep against a quarter of it) is a gap of " +
+                  Format("%.2g", d.discretisation_gap) + ": an effect must remove more than " +
+                  Format("%.3g", o.diagnose.min_discretisation_multiple) + " times that.")
+    << "</p>\n";
   if (!d.parameters.empty()) {
     h << "<h2>Fitted effect parameters</h2><table><tr><th>parameter</th><th>value</th><th>standard error</th><th>unit</th></tr>\n";
     for (const dg::ParameterResult& p : d.parameters) {
@@ -178,6 +184,7 @@ nlohmann::json DiagnosisJson(const dg::Diagnosis& d) {
                   {"heldout_gap_before", d.heldout_gap_before},
                   {"heldout_gap_after", d.heldout_gap_after},
                   {"shrink_pct", 100 * (d.heldout_gap_before - d.heldout_gap_after) / d.heldout_gap_before}};
+  j["discretisation_gap"] = Number(d.discretisation_gap);
   j["split"] = d.split;
   j["rows"] = {{"train", d.train_rows}, {"heldout", d.heldout_rows}};
   j["seconds"] = d.seconds;
