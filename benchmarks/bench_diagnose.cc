@@ -253,7 +253,7 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
     t.push_back({"supply manifold of 5 chamber volumes behind a hose (b = 0.9)", {"supply_drop"}, {hose}});
   }
   t.push_back({"payload: mass x 5", {"payload"}, {}, 4 * rig.mass});
-  // a payload as large as the moving mass itself: a fifth of the force the mass x 5 case shows
+  // a payload as heavy as the moving body itself: a quarter of the mass x 5 case's added mass
   t.push_back({"payload: mass x 2", {"payload"}, {}, rig.mass});
   t.push_back({"p_P sensor offset 15 kPa, gain 1.03", {"sensor_bias"}, {}, 0, "p_P", 15000, 1.03});
   // the other chamber's sensor, an offset alone (a zero drift), on the low side

@@ -18,7 +18,7 @@
 // model's own numerical error: the part of the gap a candidate removes, sqrt(gap_before^2 -
 // gap_after^2), must exceed min_discretisation_multiple times the model's discretisation gap (its
 // held-out prediction at its timestep against a quarter of it, Richardson-scaled: diagnose.cc). On
-// a log with sensor noise it never binds; on a noise-free log of an exact integration of the same
+// the benchmark's logs with sensor noise it does not bind (README); on a noise-free log of an exact integration of the same
 // equations (rig B against tests/reference, RK4 at 1 us) a payload 0.2 % lighter had otherwise
 // "explained" 22 % of a 0.0005 gap that the model's 0.1 ms Euler step leaves. No such candidate: `none`. A richer form of an effect
 // (Candidate::refinement: supply_drop's tank, valve_delay's dead time and exact latency,
