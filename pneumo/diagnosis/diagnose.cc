@@ -149,24 +149,20 @@ double DiscretisationGap(const std::string& model_path, const Measurements& meas
   fine->opt.timestep /= kRefinement;
   Measurements fine_meas = meas;
   fine_meas.steps_per_row *= kRefinement;
-  const Prediction p = Predict(fine.get(), fine_meas, SignalModel::Identity(fine_meas), g.windows, PredictionKind::kFull, g.threads);
-  if (!p.error.empty()) {
-    *error = p.error;
+  const Evaluated ev = Evaluate(fine.get(), SignalModel::Identity(fine_meas), fine_meas, g);
+  if (!ev.error.empty()) {
+    *error = ev.error;
     return kNotComputed;
   }
-  double total = 0;
-  for (int s = 0; s < meas.signals(); ++s) {
-    double sum = 0;
-    int n = 0;
-    for (int row = 0; row < meas.rows(); ++row) {
-      const double a = coarse.prediction.simulated[s][row], b = p.simulated[s][row];
-      if (std::isnan(a) || std::isnan(b)) continue;
-      const double e = (a - b) / g.signal_scale[s];
-      sum += e * e, ++n;
-    }
-    if (n) total += sum / n;
+  // both predict the same rows of every signal (the same windows), so the difference of their
+  // normalised residuals is the normalised difference of the predictions, and its RMS the gap
+  // between them (every signal has as many rows)
+  if (ev.residuals.size() != coarse.residuals.size() || ev.residuals.size() == 0) {
+    *error = "it predicts other rows than the model at its own timestep";
+    return kNotComputed;
   }
-  return static_cast<double>(kRefinement) / (kRefinement - 1) * std::sqrt(total / std::max(meas.signals(), 1));
+  const double rms = (ev.residuals - coarse.residuals).norm() / std::sqrt(static_cast<double>(ev.residuals.size()));
+  return static_cast<double>(kRefinement) / (kRefinement - 1) * rms;
 }
 
 // the prediction of `meas` by the scenario's model, or an Evaluated with only `error` set
