@@ -107,9 +107,9 @@ struct Round {
   // verdict's): status "fitted" or "failed: why" (the screening values are then kept), held-out gap
   std::string refit_status;
   double refit_heldout_gap = kNotComputed;
-  // the backward step after the refit: an earlier effect that no longer explains the gap given the
-  // others (the criteria of a candidate, its own parameters counted) is dropped and not tried again;
-  // "" when none is. Its dIC and held-out improvement given the others.
+  // the backward step after the refit: a found effect (`accepted` included) that no longer explains
+  // the gap given the others (the criteria of a candidate, its own parameters counted) is dropped and
+  // not tried again; "" when none is. Its dIC and held-out improvement given the others.
   std::string dropped;
   double dropped_delta_ic = kNotComputed, dropped_improvement = kNotComputed;
 };
