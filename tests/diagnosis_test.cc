@@ -869,32 +869,57 @@ TEST(DiagnosisEndToEnd, NamesNoEffectForTheModelsOwnDiscretisationError) {
   EXPECT_LE(d.discretisation_gap, d.heldout_gap_before);
 }
 
-// The backward step tests the effect just accepted too. On a noise-free rig C log of a p_N sensor
-// that reads 10 kPa low, the screening fit of the offset and gain stops in their valley (the two
-// are nearly interchangeable over the logged pressures) and leaves a small structured residual; a
-// leak takes up half of it in the next round, and the joint refit of both then finishes the
-// sensor's fit and sends the leak to its lower bound. Tested given the sensor, the leak no longer
-// explains anything and is dropped: the verdict is the sensor alone.
+// a noise-free rig C log (RigLog, 6 s) whose p_N sensor reads 10 kPa low: the two chambers sit near
+// the supply for much of the log, so the sensor's offset and gain nearly trade off over it
+log::Log NoiseFreeLogOfALowPNSensor(std::uint64_t seed) {
+  log::Log log = RigLog(kRigC, seed, 6.0, {}, 500, 0, false);
+  for (double& p : log.values[log.FindColumn("cyl", "p_N")]) p -= 10000;
+  return log;
+}
+
+// sensor_bias's offset and gain, fitted as their deviations from 0 and 1 (EffectParameter::nominal),
+// converge to the truth along their valley (in 16 iterations: a screening's 10 and the joint refit's
+// 30 together give 40). Fitted as value / scale (the gain at z = 100), the solver's relative step
+// tolerance had stopped the fit after 3 iterations at -4988 Pa and a gain of 0.9904, the train gap
+// 25 times the truth's.
+TEST(DiagnosisFit, RecoversAnOffsetItsGainAlmostTradesFor) {
+  std::string error;
+  ModelPtr clean = LoadEditedModel(kRigC, {}, &error);
+  ASSERT_TRUE(clean) << error;
+  std::optional<Measurements> meas = PrepareMeasurements(clean.get(), NoiseFreeLogOfALowPNSensor(3), 100, &error);
+  ASSERT_TRUE(meas) << error;
+  const std::vector<Candidate> library = CandidateLibrary(clean.get(), *meas);
+  auto form = std::find_if(library.begin(), library.end(), [](const Candidate& c) { return c.form == "offset and gain of cyl.p_N"; });
+  ASSERT_NE(form, library.end());
+  CandidateFit fit = FitOnRigC(*form, *meas, 40);
+  ASSERT_EQ(fit.error, "");
+  EXPECT_TRUE(fit.converged);
+  // within 5 % of the offset and 0.1 % of the gain (the noise-free log's own floor, the model's
+  // discretisation and the velocity estimated from x, leaves a little: -10109 Pa and 1.0002)
+  EXPECT_NEAR(fit.values[0], -10000, 500);
+  EXPECT_NEAR(fit.values[1], 1, 1e-3);
+}
+
+// The backward step tests the effect just accepted too. With the screening and the joint refit both
+// capped at 2 iterations, the p_N sensor's offset and gain stop short of their truth (above) and
+// leave a structured residual; a leak takes up part of it in round 2, and the joint refit of both
+// carries the sensor's fit on, after which the leak no longer explains the gap given the sensor: it
+// is dropped, and the verdict is the sensor alone (before the step tested the newest effect, it was
+// sensor_bias + leakage).
 TEST(DiagnosisEndToEnd, DropsAnEffectTheJointRefitTakesBack) {
-  auto log = [](std::uint64_t seed) {
-    log::Log l = RigLog(kRigC, seed, 6.0, {}, 500, 0, false);
-    const int c = l.FindColumn("cyl", "p_N");
-    for (double& p : l.values[c]) p -= 10000;
-    return l;
-  };
-  const log::Log train = log(3), held = log(4);
+  const log::Log train = NoiseFreeLogOfALowPNSensor(3), held = NoiseFreeLogOfALowPNSensor(4);
   DiagnoseOptions o;
   o.effects = {"sensor_bias", "leakage"};
+  o.max_iterations = 2;
+  o.refit_iterations = 2;
   Diagnosis d = Diagnose(kRigC, train, &held, o);
   ASSERT_EQ(d.error, "");
   ASSERT_EQ(d.effects.size(), 1u);
   EXPECT_EQ(d.effects[0], "sensor_bias");
-  // the path this test is for: the leak accepted in round 2, then dropped in the same round (a
-  // screening fit that converged would leave nothing for it; then this log no longer tests the step)
+  // the path this test is for: the leak accepted in round 2, then dropped in the same round
   ASSERT_GE(d.rounds.size(), 2u);
   EXPECT_EQ(d.rounds[1].accepted, "leakage");
   EXPECT_EQ(d.rounds[1].dropped, "leakage");
-  EXPECT_LT(d.rounds[1].refit_heldout_gap, d.rounds[1].heldout_gap_before);
 }
 
 }  // namespace

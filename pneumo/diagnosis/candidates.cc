@@ -314,7 +314,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
     EffectParameter p;
     p.name = cyl.info.name + ":joint " + std::string(m->names + m->name_jntadr[cyl.joint]) + " " + key;
     p.unit = m->jnt_type[cyl.joint] == mjJNT_HINGE ? hinge_unit : slide_unit;
-    p.initial = (m->*field)[dof];
+    p.initial = p.nominal = (m->*field)[dof];
     p.apply = [dof, field](mjModel* model, SignalModel*, double value) {
       (model->*field)[dof] = value;
       return std::string();
@@ -410,6 +410,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
     const double nominal = cyl.info.p_supply;
     c->parameters.push_back(KeyParameter(n, "p_supply", nominal, std::max(cyl.info.p_exhaust * 1.05, 0.5 * nominal), nominal * 1.05,
                                          0.02 * (nominal - cyl.info.p_exhaust)));
+    c->parameters.back().nominal = nominal;
   });
   // supply_drop, second form: a supply that sags under flow. A tank behind a restrictive line from
   // the compressor feeds every cylinder (a reservoir, plugin/README.md "Supply reservoirs"): a
@@ -568,7 +569,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
     EffectParameter gain;
     gain.name = meas.SignalLabel(s) + ":gain";
     gain.unit = "1";
-    gain.initial = 1, gain.lower = 0.5, gain.upper = 1.5, gain.scale = 0.01;
+    gain.initial = gain.nominal = 1, gain.lower = 0.5, gain.upper = 1.5, gain.scale = 0.01;
     gain.apply = [s](mjModel*, SignalModel* sensors, double value) {
       sensors->gain[s] = value;
       return std::string();

@@ -61,6 +61,13 @@ struct EffectParameter {
   std::string unit;   // SI
   double initial = 0, lower = 0, upper = 0;
   double scale = 1;   // typical magnitude: the fit's unit and finite-difference reference
+  // a linear parameter is fitted as z = (value - nominal) / scale, its deviation from the model
+  // without the effect (a gain's 1, the rated supply pressure), so that the solver's relative step
+  // tolerance (Ceres' parameter_tolerance, relative to |z|) measures a step against the effect's
+  // size: at z = value / scale a sensor gain near 1 on a scale of 0.01 sat at z = 100, and on a
+  // noise-free rig C log the fit of a p_N sensor's -10 kPa offset stopped at -5 kPa and gain 0.990
+  // (the two trade off over the logged pressures) with steps of 3e-5 |z|
+  double nominal = 0;
   // fitted as z = ln(value / scale) (lower > 0): for magnitudes known only to a decade or two
   // (conductances, volumes), where a linear step either crawls or overshoots
   bool logarithmic = false;

@@ -21,9 +21,11 @@ std::string ApplyValues(const Candidate& c, const std::vector<double>& values, m
   return "";
 }
 
-// the optimiser's variable z of a parameter and back: value = scale z, or scale e^z
-double ToValue(const EffectParameter& p, double z) { return p.logarithmic ? p.scale * std::exp(z) : p.scale * z; }
-double ToVariable(const EffectParameter& p, double value) { return p.logarithmic ? std::log(value / p.scale) : value / p.scale; }
+// the optimiser's variable z of a parameter and back: value = nominal + scale z, or scale e^z
+double ToValue(const EffectParameter& p, double z) { return p.logarithmic ? p.scale * std::exp(z) : p.nominal + p.scale * z; }
+double ToVariable(const EffectParameter& p, double value) {
+  return p.logarithmic ? std::log(value / p.scale) : (value - p.nominal) / p.scale;
+}
 
 // Ceres' view of a candidate's fit: one block z (value = z scale), the normalised residuals of the
 // valid rows. Remembers the last point, because Ceres evaluates the residuals of a step and then,
