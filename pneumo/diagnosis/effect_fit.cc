@@ -27,9 +27,9 @@ double ToVariable(const EffectParameter& p, double value) {
   return p.logarithmic ? std::log(value / p.scale) : (value - p.nominal) / p.scale;
 }
 
-// Ceres' view of a candidate's fit: one block z (value = z scale), the normalised residuals of the
-// valid rows. Remembers the last point, because Ceres evaluates the residuals of a step and then,
-// once it accepts it, residuals and Jacobian at the same point.
+// Ceres' view of a candidate's fit: one block z (ToValue: value = nominal + scale z, or scale e^z),
+// the normalised residuals of the valid rows. Remembers the last point, because Ceres evaluates the
+// residuals of a step and then, once it accepts it, residuals and Jacobian at the same point.
 class EffectCost : public ceres::CostFunction {
  public:
   EffectCost(const mjModel* base, const SignalModel& sensors, const Candidate& c, const Measurements& meas,
