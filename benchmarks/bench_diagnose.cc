@@ -68,6 +68,7 @@ struct Rig {
   double stroke = 0, max_force = 0, mass = 0;
   double mid_volume = 0;        // m^3: a chamber at mid-stroke (dead volume + A l/2)
   double valve_conductance = 0; // kg/(s Pa): the valve's port wide open, as an ISO 6358 sonic conductance
+  double valve_gain = 0;        // proportional valves: spool_gain (5/3, m/V) or the chambers' area_gain (m^2/V)
 };
 
 // the truth: MJCF edits, model fields, and a sensor bias on one logged signal
@@ -81,6 +82,9 @@ struct Truth {
   std::string biased = "p_P";
   double offset = 0, gain = 1;
   double command_delay = 0;          // s: the valves get the logged commands this late (whole ticks)
+  // keys of cylinder "cyl" set on the loaded model (pneumatic::SetParameter), for keys its MJCF
+  // already gives (an edit would give them twice)
+  std::vector<std::pair<std::string, double>> set_keys = {};
 };
 
 // the reference the PID follows: a multi-sine (4 components, 0.2-1.2 Hz, random phases) at 60 % of
@@ -127,6 +131,9 @@ std::optional<pneumatic::log::Log> Simulate(const Rig& rig, const Truth& truth, 
                                             ReferenceShape shape = ReferenceShape::kMultiSine, double noise_scale = 1) {
   dg::ModelPtr m = dg::LoadEditedModel(rig.file, truth.edits, error);
   if (!m) return std::nullopt;
+  for (const auto& [key, value] : truth.set_keys) {
+    if (!pneumatic::SetParameter(m.get(), "cyl", key, value, error)) return std::nullopt;
+  }
   if (truth.added_mass != 0) {
     const int body = mj_name2id(m.get(), mjOBJ_BODY, "piston");
     const double scale = (m->body_mass[body] + truth.added_mass) / m->body_mass[body];
@@ -189,10 +196,21 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
     late.command_delay = 0.008;
     t.push_back(late);
   }
+  // the deadband in the candidate's form (the band cut out of the opening, as an overlapped spool's
+  // lands do), and in another: the valve still reaching its rated opening at full command, as a model
+  // built from a datasheet's rated flow has it, so the opening beyond the band grows more steeply
+  // (valve_deadband's candidate keeps the model's slope)
   if (valve == "proportional_5_3") {
     t.push_back({"spool deadband 12 %", {"valve_deadband"}, {{"cyl", {}, {}, {}, {{"deadband", "0.12"}}}}});
+    Truth rated{"spool deadband 12 %, the rated opening at full command", {"valve_deadband"}, {{"cyl", {}, {}, {}, {{"deadband", "0.12"}}}}};
+    rated.set_keys = {{"spool_gain", rig.valve_gain / (1 - 0.12)}};
+    t.push_back(rated);
   } else if (valve == "proportional_per_chamber" && HasKey("deadband_voltage")) {
     t.push_back({"deadband 0.3 V", {"valve_deadband"}, {{"cyl", {}, {}, {}, {{"deadband_voltage", "0.3"}}}}});
+    // the supply port opens over U_c = 5.3 V .. 10 V and the exhaust port over 4.7 V .. 0 V, 4.7 V each
+    Truth rated{"deadband 0.3 V, the rated area at full command", {"valve_deadband"}, {{"cyl", {}, {}, {}, {{"deadband_voltage", "0.3"}}}}};
+    rated.set_keys = {{"area_gain", rig.valve_gain * 4.7 / (4.7 - 0.3)}};
+    t.push_back(rated);
   }
   if (HasKey("friction_model")) {
     auto lugre = [&](double coulomb, double stat, const std::string& source) {
@@ -288,6 +306,9 @@ bool DescribeRig(Rig* rig, std::string* valve, std::string* error_out) {
   rig->mid_volume = *pneumatic::GetParameter(m.get(), "cyl", "P.dead_volume", &error) +
                     *pneumatic::GetParameter(m.get(), "cyl", "P.area", &error) * rig->stroke / 2;
   *valve = *pneumatic::GetChoice(m.get(), "cyl", "valve", &error);
+  if (*valve != "onoff") {
+    rig->valve_gain = *pneumatic::GetParameter(m.get(), "cyl", *valve == "proportional_5_3" ? "spool_gain" : "P.area_gain", &error);
+  }
   // choked mass flow per upstream pressure of an orifice of area A: 0.72 A sqrt(gamma / (r T))
   // (2 / (gamma + 1))^((gamma + 1) / (2 (gamma - 1))) = 1.7e-3 A s/m for air at 293 K (paper 000 eq. 1)
   rig->valve_conductance = *valve == "onoff" ? *pneumatic::GetParameter(m.get(), "cyl", "P.sonic_conductance", &error)

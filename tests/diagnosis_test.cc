@@ -776,6 +776,36 @@ TEST(DiagnosisFit, RecoversAViscousSealFrictionTheCoulombFormOnlyApproximates) {
   EXPECT_LT(viscous.train_gap_after, coulomb.train_gap_after);
 }
 
+// valve_deadband's two forms fitted to a rig C log of a valve with a 0.3 V band that still opens its
+// rated area at full command: each port opens over 4.7 V of command (5.3 to 10 V, 4.7 to 0 V), so
+// its slope beyond the band is area_gain 4.7 / 4.4 = 1.068 times the model's. The second form
+// recovers the band and that factor within 4 standard errors (here 0.3005 +- 0.0005 V and 1.0684 +-
+// 0.0024 for 1.0682) and fits the training windows better (0.0141 against 0.0179, from 0.3669); the
+// first, keeping the model's slope, finds the band (0.2996 V) but leaves the flow error at large
+// commands, which a second effect could take up.
+TEST(DiagnosisFit, RecoversTheSteeperSlopeOfABandAtRatedFlow) {
+  std::string error;
+  ModelPtr clean = LoadEditedModel(kRigC, {}, &error);
+  ASSERT_TRUE(clean) << error;
+  const double factor = 4.7 / (4.7 - 0.3);
+  const std::optional<double> model_gain = GetParameter(clean.get(), "cyl", "P.area_gain", &error);
+  ASSERT_TRUE(model_gain) << error;
+  const std::string gain = Number(factor * *model_gain);
+  const ModelEdit band{"cyl", {}, {}, {}, {{"deadband_voltage", "0.3"}, {"P.area_gain", gain}, {"N.area_gain", gain}}};
+  std::optional<Measurements> meas = PrepareMeasurements(clean.get(), RigCLog(3, 4.0, 0, 1, {band}), 100, &error);
+  ASSERT_TRUE(meas) << error;
+  const std::optional<Candidate> band_form = FirstForm(clean.get(), *meas, "valve_deadband");
+  const std::optional<Candidate> slope_form = RicherForm(clean.get(), *meas, "valve_deadband", "slope");
+  ASSERT_TRUE(band_form && slope_form);
+  ASSERT_EQ(slope_form->parameters.size(), 2u);
+  const CandidateFit band_only = FitOnRigC(*band_form, *meas, 30), with_slope = FitOnRigC(*slope_form, *meas, 30);
+  ASSERT_EQ(band_only.error, "");
+  ASSERT_EQ(with_slope.error, "");
+  EXPECT_NEAR(with_slope.values[0], 0.3, 4 * with_slope.standard_errors[0]);
+  EXPECT_NEAR(with_slope.values[1], factor, 4 * with_slope.standard_errors[1]);
+  EXPECT_LT(with_slope.train_gap_after, band_only.train_gap_after);
+}
+
 // heat_transfer's two forms fitted to a rig B log of the candidates' own equation (one wall conductance,
 // a wall time constant of 0.3 s at mid-stroke): the second, with the gas temperatures estimated over
 // the log's history, recovers the conductance within 4 standard errors (here 1.93 +- 0.43 W/K for
