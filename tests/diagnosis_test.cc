@@ -776,6 +776,32 @@ TEST(DiagnosisFit, RecoversAViscousSealFrictionTheCoulombFormOnlyApproximates) {
   EXPECT_LT(viscous.train_gap_after, coulomb.train_gap_after);
 }
 
+// line_dynamics fitted to a rig C log of tubes of unequal length: P's of 2.5e-6 m^3 behind 8.7e-9
+// kg/(s Pa), N's half as long (half the volume behind twice the conductance). Each chamber's tube is
+// its own, so the fit recovers both volumes and both conductances within 4 standard errors (here
+// 2.510 +- 0.010 and 1.267 +- 0.009 cm^3; 5.9 +- 1.4e-9 and 1.15 +- 0.27e-8 kg/(s Pa): a restriction
+// tells less than a volume), taking the training gap from 0.0622 to 0.0141, the sensor noise's.
+TEST(DiagnosisFit, RecoversTubesOfUnequalLength) {
+  std::string error;
+  ModelPtr clean = LoadEditedModel(kRigC, {}, &error);
+  ASSERT_TRUE(clean) << error;
+  const ModelEdit tubes{"cyl", {"LP", "LN"}, {}, {}, {{"P.line_volume", "2.5e-6"}, {"P.line_conductance", "8.7e-9"},
+                                                      {"N.line_volume", "1.25e-6"}, {"N.line_conductance", "1.74e-8"}}};
+  std::optional<Measurements> meas = PrepareMeasurements(clean.get(), RigCLog(3, 4.0, 0, 1, {tubes}), 100, &error);
+  ASSERT_TRUE(meas) << error;
+  const std::optional<Candidate> form = FirstForm(clean.get(), *meas, "line_dynamics");
+  ASSERT_TRUE(form);
+  ASSERT_EQ(form->parameters.size(), 4u);
+  ASSERT_EQ(form->parameters[0].name, "cyl:P.line_volume");
+  ASSERT_EQ(form->parameters[1].name, "cyl:N.line_volume");
+  const CandidateFit fit = FitOnRigC(*form, *meas, 30);
+  ASSERT_EQ(fit.error, "");
+  EXPECT_NEAR(fit.values[0], 2.5e-6, 4 * fit.standard_errors[0]);
+  EXPECT_NEAR(fit.values[1], 1.25e-6, 4 * fit.standard_errors[1]);
+  EXPECT_NEAR(fit.values[2], 8.7e-9, 4 * fit.standard_errors[2]);
+  EXPECT_NEAR(fit.values[3], 1.74e-8, 4 * fit.standard_errors[3]);
+}
+
 // valve_deadband's two forms fitted to a rig C log of a valve with a 0.3 V band that still opens its
 // rated area at full command: each port opens over 4.7 V of command (5.3 to 10 V, 4.7 to 0 V), so
 // its slope beyond the band is area_gain 4.7 / 4.4 = 1.068 times the model's. The second form
