@@ -249,8 +249,9 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
   if (HasKey("line_volume")) {
     dg::ModelEdit line{"cyl", {"LP", "LN"}, {}, {}, {{"line_volume", num(0.5 * rig.mid_volume)}, {"line_conductance", num(1.5 * rig.valve_conductance)}}};
     t.push_back({"tube of half the mid-stroke volume behind a restriction", {"line_dynamics"}, {line}});
-    // tubes of unequal length (line_dynamics' candidates give both chambers one tube): P's as above,
-    // N's half as long, so half the volume behind half the resistance
+    // tubes of unequal length, a valve nearer one chamber than the other: P's as above, N's half as
+    // long, so half the volume behind half the resistance (one tube for both chambers, line_dynamics'
+    // form before this truth, could not fit it)
     t.push_back({"tubes of unequal length: P's as above, N's half as long", {"line_dynamics"},
                  {{"cyl", {"LP", "LN"}, {}, {}, {{"P.line_volume", num(0.5 * rig.mid_volume)}, {"P.line_conductance", num(1.5 * rig.valve_conductance)},
                                               {"N.line_volume", num(0.25 * rig.mid_volume)}, {"N.line_conductance", num(3 * rig.valve_conductance)}}}}});
