@@ -322,9 +322,9 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
     if (valve == "proportional_5_3") keys = {"spool_gain"};
     if (valve == "proportional_per_chamber") keys = {"P.area_gain", "N.area_gain"};
     if (keys.empty()) return;
-    deadband(cyl, c);
-    c->form = keys.size() == 1 ? "spool deadband (fraction of the spool range), and the valve's slope beyond it (a factor on spool_gain)"
-                               : "a voltage band added to each port's sealed band, and the valve's slope beyond it (a factor on area_gain)";
+    deadband(cyl, c);  // the band, and the first form's text, which this form extends
+    c->form += keys.size() == 1 ? ", and the valve's slope beyond it (a factor on spool_gain)"
+                                : ", and the valve's slope beyond it (a factor on area_gain)";
     std::vector<std::pair<std::string, double>> gains;
     for (const std::string& key : keys) gains.push_back({key, Parameter(m, n, key, 0)});
     EffectParameter p;
