@@ -27,9 +27,11 @@
 //                  offset alone of p_N
 // Prints one line per case, the confusion matrix (true effect vs verdict) and the median held-out
 // shrink of the cases with an effect. Usage: bench_diagnose [--quick] [--rig A|B|C] [--case TEXT] [--duration S]
-// [--rate HZ] [--noise K] [--reference multisine|steps] [--no-supply-sensor] [--verbose] (--case: only the truths whose
-// label contains TEXT; --rate: the controller's and the log's rate, 500 Hz by default; --noise K: K times the sensor
-// noise (500 Pa, 0.05 mm); --reference steps: step changes of the reference instead of the multi-sine;
+// [--rate HZ] [--noise K] [--reference multisine|steps|open-loop] [--no-supply-sensor] [--verbose] (--case: only the
+// truths whose label contains TEXT; --rate: the controller's and the log's rate, 500 Hz by default; --noise K: K times
+// the sensor noise (500 Pa, 0.05 mm); --reference steps: step changes of the reference instead of the multi-sine;
+// --reference open-loop: no feedback from the truth at all, the valves driven by tests/reference's excitation of the
+// rig (Excitation(), one command per tick, each log's seed), which an independent simulator's log could be;
 // --no-supply-sensor: the logs without their p_S column, as from a robot with no supply pressure sensor; --verbose:
 // the diagnosis' progress on stderr)
 // bench_diagnose --speed: the wall time of diagnosing one 20 s log of rig C (a laminar leak, the
@@ -51,6 +53,7 @@
 #include "key_value_text.h"
 #include "machine.h"
 #include "pneumatic/pneumatic.h"
+#include "rig_reference.h"
 
 namespace {
 
@@ -89,8 +92,38 @@ struct Truth {
 
 // the reference the PID follows: a multi-sine (4 components, 0.2-1.2 Hz, random phases) at 60 % of
 // the half stroke; or, with --reference steps, steps to random levels within 60 % of the half stroke,
-// each held 1 to 2 s (after 1 s at mid-stroke), which saturate the valves at every step
-enum class ReferenceShape { kMultiSine, kSteps };
+// each held 1 to 2 s (after 1 s at mid-stroke), which saturate the valves at every step; or, with
+// --reference open-loop, none: the valves are driven open loop (OpenLoopValves)
+enum class ReferenceShape { kMultiSine, kSteps, kOpenLoop };
+
+// --reference open-loop: the valve commands of tests/reference's excitation of the rig (Excitation():
+// random modes, multi-sines and steps, kept inside the stroke by a loose loop closed on the
+// generator's own nominal copy of the rig, not on the truth), one per tick, whatever is measured.
+// So a truth that moves the piston differently (a payload, friction) is not corrected: the log of a
+// rig excited open loop, as an independent simulator or an identification experiment would make it.
+class OpenLoopValves : public pneumatic::Controller {
+ public:
+  OpenLoopValves(std::vector<pneumatic::reference::RigCommand> commands, double period, pneumatic::reference::Rig rig)
+      : commands_(std::move(commands)), period_(period), rig_(rig) {}
+  double Period() const override { return period_; }
+  void Update(double time, const std::vector<pneumatic::CylinderMeasurement>&,
+              std::vector<pneumatic::CylinderCommands>* commands) override {
+    const auto tick = static_cast<size_t>(std::max(0LL, std::llround(time / period_)));
+    const pneumatic::reference::RigCommand& c = commands_[std::min(tick, commands_.size() - 1)];
+    switch (rig_) {
+      case pneumatic::reference::Rig::kOnOff: (*commands)[0] = {{"u1", c.u1}, {"u2", c.u2}, {"u3", c.u3}, {"u4", c.u4}}; break;
+      case pneumatic::reference::Rig::kProportional: (*commands)[0] = {{"u", c.u}}; break;
+      case pneumatic::reference::Rig::kPerChamber: (*commands)[0] = {{"uP", c.uP}, {"uN", c.uN}}; break;
+    }
+  }
+  std::vector<double> State() const override { return {}; }  // the tick follows from the time
+  bool SetState(const std::vector<double>& state) override { return state.empty(); }
+
+ private:
+  std::vector<pneumatic::reference::RigCommand> commands_;
+  double period_;
+  pneumatic::reference::Rig rig_;
+};
 
 pneumatic::log::Log StepReference(const Rig& rig, std::uint64_t seed, double duration) {
   std::mt19937_64 random(seed);
@@ -150,6 +183,17 @@ std::optional<pneumatic::log::Log> Simulate(const Rig& rig, const Truth& truth, 
   o.control_rate = control_rate;
   o.controller = "pid";
   o.reference = &ref;
+  if (shape == ReferenceShape::kOpenLoop) {
+    const pneumatic::reference::Rig reference_rig = rig.name == "A"   ? pneumatic::reference::Rig::kOnOff
+                                                    : rig.name == "B" ? pneumatic::reference::Rig::kProportional
+                                                                      : pneumatic::reference::Rig::kPerChamber;
+    std::vector<pneumatic::reference::RigCommand> commands =
+        pneumatic::reference::Excitation(reference_rig, duration, static_cast<uint32_t>(seed), 1 / control_rate);
+    o.controller = "custom";
+    o.make_controller = [commands, reference_rig](const std::vector<pneumatic::ValveDrive>&, double period, std::string*) {
+      return std::make_unique<OpenLoopValves>(commands, period, reference_rig);
+    };
+  }
   o.seed = seed;
   o.noise_pressure = 500 * noise_scale;   // Pa
   o.noise_position = 5e-5 * noise_scale;  // m
@@ -350,11 +394,11 @@ int main(int argc, char** argv) {
       (option == "--duration" ? duration : option == "--rate" ? rate : noise_scale) = value;
     } else if (!std::strcmp(argv[i], "--reference") && i + 1 < argc) {
       const std::string name = argv[++i];
-      if (name != "multisine" && name != "steps") {
-        std::fprintf(stderr, "--reference: expected multisine or steps, got '%s'\n", name.c_str());
+      if (name != "multisine" && name != "steps" && name != "open-loop") {
+        std::fprintf(stderr, "--reference: expected multisine, steps or open-loop, got '%s'\n", name.c_str());
         return 2;
       }
-      shape = name == "steps" ? ReferenceShape::kSteps : ReferenceShape::kMultiSine;
+      shape = name == "steps" ? ReferenceShape::kSteps : name == "open-loop" ? ReferenceShape::kOpenLoop : ReferenceShape::kMultiSine;
     } else {
       std::fprintf(stderr, "bench_diagnose: unknown argument '%s' (see the usage at the top of bench_diagnose.cc)\n", argv[i]);
       return 2;
