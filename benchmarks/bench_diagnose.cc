@@ -9,7 +9,10 @@
 // form of the library, fitted when the simpler one leads, has (one supply truth is the tank
 // candidate's own form, and another supply truth then is not):
 //   friction       LuGre (dynamic stick-slip, static above Coulomb), -> Coulomb (joint frictionloss); richer:
-//                  or LuGre mostly viscous (a lubricated seal)          Coulomb and viscous (frictionloss, damping)
+//                  or LuGre mostly viscous (a lubricated seal), with    Coulomb and viscous (frictionloss, damping),
+//                  a Stribeck velocity of 10 mm/s                       or LuGre with its own fixed Stribeck velocity,
+//                                                                       a twentieth of a stroke per second (5 mm/s
+//                                                                       on rigs A and C, 25 mm/s on B)
 //   valve_delay    on/off armature delays that lose short pulses     -> (same keys: the armature model)
 //                  proportional valves' dead time (Pade)             -> a slower first-order spool; richer:
 //                                                                       a dead time (Pade) before the lag

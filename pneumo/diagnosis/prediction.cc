@@ -32,6 +32,18 @@ class WindowRunner {
       auto same = [&](const CylinderInfo& c) { return c.name == cyl.info.name; };
       auto found = std::find_if(cylinders.begin(), cylinders.end(), same);
       cylinders_.push_back(found != cylinders.end() ? *found : cyl.info);  // an edit keeps every cylinder
+      // the command actuators in this model, by log signal: an edit that adds a stateless actuator
+      // (a seal friction's force) puts it before the others (MuJoCo 2.2 wants stateless actuators
+      // first), so the ids of the model the log was prepared on point one actuator off here
+      std::vector<int> ids;
+      for (size_t j = 0; j < cyl.command_names.size(); ++j) {
+        int id = cyl.command_actuators[j];
+        for (const auto& [signal, actuator] : cylinders_.back().command_actuators) {
+          if (signal == cyl.command_names[j]) id = actuator;
+        }
+        ids.push_back(id);
+      }
+      command_ids_.push_back(std::move(ids));
     }
   }
 
@@ -127,7 +139,7 @@ class WindowRunner {
       const CylinderSeries& cyl = meas_.cylinders[c];
       const double delay = signals_.command_delay[c];
       if (delay == 0) {
-        for (size_t j = 0; j < cyl.command_actuators.size(); ++j) d_->ctrl[cyl.command_actuators[j]] = cyl.commands[j][row];
+        for (size_t j = 0; j < cyl.command_actuators.size(); ++j) d_->ctrl[command_ids_[c][j]] = cyl.commands[j][row];
         continue;
       }
       const double step = 1.0 / meas_.steps_per_row;
@@ -137,7 +149,7 @@ class WindowRunner {
       const int first = std::clamp(static_cast<int>(std::floor(a)), 0, rows - 1), next = std::clamp(first + 1, 0, rows - 1);
       for (size_t j = 0; j < cyl.command_actuators.size(); ++j) {
         const std::vector<double>& u = cyl.commands[j];
-        d_->ctrl[cyl.command_actuators[j]] = (1 - later) * u[first] + later * u[next];
+        d_->ctrl[command_ids_[c][j]] = (1 - later) * u[first] + later * u[next];
       }
     }
   }
@@ -230,6 +242,7 @@ class WindowRunner {
   PredictionKind kind_;
   std::unique_ptr<mjData, void (*)(mjData*)> d_;
   std::vector<CylinderInfo> cylinders_;  // per cylinder of the log: its actuators in m_ (chambers, lines, supply)
+  std::vector<std::vector<int>> command_ids_;  // per cylinder of the log: its command actuators in m_, in the order of its command_names
 };
 
 }  // namespace
