@@ -56,6 +56,7 @@
 #include "key_value_text.h"
 #include "machine.h"
 #include "pneumatic/pneumatic.h"
+#include "reference_log.h"
 #include "rig_reference.h"
 
 namespace {
@@ -71,6 +72,7 @@ bool HasKey(const std::string& key) {
 
 struct Rig {
   std::string name, file;
+  pneumatic::reference::Rig reference = pneumatic::reference::Rig::kOnOff;  // the same rig in tests/reference
   double stroke = 0, max_force = 0, mass = 0;
   double mid_volume = 0;        // m^3: a chamber at mid-stroke (dead volume + A l/2)
   double valve_conductance = 0; // kg/(s Pa): the valve's port wide open, as an ISO 6358 sonic conductance
@@ -113,11 +115,7 @@ class OpenLoopValves : public pneumatic::Controller {
               std::vector<pneumatic::CylinderCommands>* commands) override {
     const auto tick = static_cast<size_t>(std::max(0LL, std::llround(time / period_)));
     const pneumatic::reference::RigCommand& c = commands_[std::min(tick, commands_.size() - 1)];
-    switch (rig_) {
-      case pneumatic::reference::Rig::kOnOff: (*commands)[0] = {{"u1", c.u1}, {"u2", c.u2}, {"u3", c.u3}, {"u4", c.u4}}; break;
-      case pneumatic::reference::Rig::kProportional: (*commands)[0] = {{"u", c.u}}; break;
-      case pneumatic::reference::Rig::kPerChamber: (*commands)[0] = {{"uP", c.uP}, {"uN", c.uN}}; break;
-    }
+    (*commands)[0] = pneumatic::reference::NamedCommands(rig_, c);
   }
   std::vector<double> State() const override { return {}; }  // the tick follows from the time
   bool SetState(const std::vector<double>& state) override { return state.empty(); }
@@ -187,9 +185,7 @@ std::optional<pneumatic::log::Log> Simulate(const Rig& rig, const Truth& truth, 
   o.controller = "pid";
   o.reference = &ref;
   if (shape == ReferenceShape::kOpenLoop) {
-    const pneumatic::reference::Rig reference_rig = rig.name == "A"   ? pneumatic::reference::Rig::kOnOff
-                                                    : rig.name == "B" ? pneumatic::reference::Rig::kProportional
-                                                                      : pneumatic::reference::Rig::kPerChamber;
+    const pneumatic::reference::Rig reference_rig = rig.reference;
     std::vector<pneumatic::reference::RigCommand> commands =
         pneumatic::reference::Excitation(reference_rig, duration, static_cast<uint32_t>(seed), 1 / control_rate);
     o.controller = "custom";
@@ -409,7 +405,10 @@ int main(int argc, char** argv) {
   }
   pneumatic::benchmarks::PrintMachine(PNEUMATIC_BUILD_TYPE);
   const std::string dir = PNEUMATIC_MODELS_DIR;
-  std::vector<Rig> rigs = {{"A", dir + "/rig_onoff.xml"}, {"B", dir + "/rig_proportional.xml"}, {"C", dir + "/rig_per_chamber.xml"}};
+  using ReferenceRig = pneumatic::reference::Rig;
+  std::vector<Rig> rigs = {{"A", dir + "/rig_onoff.xml", ReferenceRig::kOnOff},
+                           {"B", dir + "/rig_proportional.xml", ReferenceRig::kProportional},
+                           {"C", dir + "/rig_per_chamber.xml", ReferenceRig::kPerChamber}};
   if (speed) {
     Rig rig = rigs[2];
     std::string valve, error;

@@ -179,14 +179,10 @@ struct Control {
   double value;
 };
 std::vector<Control> Controls(const mjModel* m, Rig rig, const pneumatic::reference::RigCommand& c) {
-  std::vector<std::pair<const char*, double>> named;
-  switch (rig) {
-    case Rig::kOnOff: named = {{"cyl.u1", c.u1}, {"cyl.u2", c.u2}, {"cyl.u3", c.u3}, {"cyl.u4", c.u4}}; break;
-    case Rig::kProportional: named = {{"cyl.u", c.u}}; break;
-    case Rig::kPerChamber: named = {{"cyl.uP", c.uP}, {"cyl.uN", c.uN}}; break;
-  }
   std::vector<Control> controls;
-  for (const auto& [name, value] : named) controls.push_back({mj_name2id(m, mjOBJ_ACTUATOR, name), value});
+  for (const auto& [signal, value] : pneumatic::reference::NamedCommands(rig, c)) {
+    controls.push_back({mj_name2id(m, mjOBJ_ACTUATOR, ("cyl." + signal).c_str()), value});
+  }
   return controls;
 }
 

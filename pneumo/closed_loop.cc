@@ -91,10 +91,8 @@ std::string DriveOf(const mjModel* m, const CylinderInfo& c, ValveDrive* drive) 
     drive->centre = (*u_c + *u_r) / 2;  // paper 000 Table I: c1 = (U_c + U_r) / 2, the sealed valve
     drive->command_min = drive->centre - 5, drive->command_max = drive->centre + 5;
     ReadChamberValves(m, c, drive);
-    for (const auto& [signal, id] : c.command_actuators) {
-      if (signal == "uP" && m->actuator_ctrllimited[id]) {
-        drive->command_min = m->actuator_ctrlrange[2 * id], drive->command_max = m->actuator_ctrlrange[2 * id + 1];
-      }
+    if (int id = c.CommandActuator("uP"); id >= 0 && m->actuator_ctrllimited[id]) {
+      drive->command_min = m->actuator_ctrlrange[2 * id], drive->command_max = m->actuator_ctrlrange[2 * id + 1];
     }
   } else if (*valve == "proportional_5_3") {
     drive->kind = ValveDrive::Kind::kFiveThree;
@@ -280,8 +278,7 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
     ch.hold = options.resume ? options.resume->hold[i] : PistonPosition(m, d.get(), ch.info);
     if (options.resume && !ch.noise.Load(options.resume->noise[i])) return fail("the state's noise stream is not one");
     for (const auto& [signal, value] : RestCommands(ch.drive)) {
-      int actuator = -1;
-      for (const auto& [s, id] : ch.info.command_actuators) actuator = s == signal ? id : actuator;
+      int actuator = ch.info.CommandActuator(signal);
       if (actuator < 0) return fail("cylinder '" + ch.info.name + "' has no actuator '" + ch.info.name + "." + signal + "'");
       ch.command_columns.emplace_back(actuator, static_cast<int>(out.columns.size()));
       out.columns.push_back({ch.info.name, signal});

@@ -75,10 +75,7 @@ GenerateResult Generate(const mjModel* m, const GenerateOptions& options) {
   for (size_t i = 0; i < cylinders.size(); ++i) {
     const CylinderInfo& c = cylinders[i];
     Channel ch{c, -1, -1, {}, {}, Stream(options.seed, i, kNoise), Pid(kGains, options.period)};
-    for (const auto& [signal, actuator] : c.command_actuators) {
-      if (signal == "uP") ch.actuator_uP = actuator;
-      if (signal == "uN") ch.actuator_uN = actuator;
-    }
+    ch.actuator_uP = c.CommandActuator("uP"), ch.actuator_uN = c.CommandActuator("uN");
     if (ch.actuator_uP < 0 || ch.actuator_uN < 0 || c.command_actuators.size() != 2) {
       return fail("cylinder '" + c.name + "' has valve=" + GetChoice(m, c.name, "valve", nullptr).value_or("?") +
                   ": generate drives one proportional valve per chamber (valve=proportional_per_chamber, "

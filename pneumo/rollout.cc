@@ -56,10 +56,8 @@ std::string CheckMeasurements(const mjModel* m, const log::Log& log) {
       std::snprintf(stroke_text, sizeof(stroke_text), "a position on a stroke of %.9g", stroke);
       what = stroke_text;
     } else {
-      for (const auto& [signal, id] : cylinder->command_actuators) {
-        if (signal == s && m->actuator_ctrllimited[id]) {
-          low = m->actuator_ctrlrange[2 * id], high = m->actuator_ctrlrange[2 * id + 1], what = "a command";
-        }
+      if (int id = cylinder->CommandActuator(s); id >= 0 && m->actuator_ctrllimited[id]) {
+        low = m->actuator_ctrlrange[2 * id], high = m->actuator_ctrlrange[2 * id + 1], what = "a command";
       }
     }
     for (size_t row = 0; row < log.rows(); ++row) {

@@ -60,13 +60,6 @@ std::string OnOffWithDelays() {
   return xml;
 }
 
-int CommandId(const CylinderInfo& c, const std::string& signal) {
-  for (const auto& [name, id] : c.command_actuators) {
-    if (name == signal) return id;
-  }
-  return -1;
-}
-
 
 
 std::vector<double> Array(const mjtNum* p, int n) { return std::vector<double>(p, p + n); }
@@ -268,7 +261,7 @@ TEST_F(EngineState, FiniteDifferencesOfActDot) {
   const mjModel* m = rig.m();
   mjData* d = rig.d();
   CylinderInfo cyl = rig.cylinder();
-  d->ctrl[CommandId(cyl, "u1")] = 1;
+  d->ctrl[cyl.CommandActuator("u1")] = 1;
   while (ChamberPressure(m, d, cyl, Chamber::kP) < 2e5 && d->time < 0.1) mj_step(m, d);
   ASSERT_GE(ChamberPressure(m, d, cyl, Chamber::kP), 2e5);
   int p = cyl.chamber_actuator[0] - (m->nu - m->na);
@@ -393,7 +386,7 @@ TEST_F(Registry, AttachTakesBackCallbacksReplacedMeanwhileAndChainsToThem) {
   EXPECT_NE(mjcb_act_bias, ForeignBias);
   // rig A's pressures still rise under the extension, and no pneumatic actuator reached ForeignDyn
   foreign_ids.clear();
-  a.d()->ctrl[CommandId(a.cylinder(), "u1")] = 1;
+  a.d()->ctrl[a.cylinder().CommandActuator("u1")] = 1;
   for (int i = 0; i < 10; ++i) mj_step(a.m(), a.d());
   EXPECT_GT(ChamberPressure(a.m(), a.d(), a.cylinder(), Chamber::kP), a.cylinder().p_atm + 1e3);
   EXPECT_TRUE(foreign_ids.empty());
@@ -432,7 +425,7 @@ TEST_F(Registry, NonPneumaticUserActuatorKeepsItsCallbacks) {
   ASSERT_EQ(p, 1);
 
   d->act[other_act] = 2;
-  d->ctrl[CommandId(cyl, "u1")] = 1;  // fill chamber P
+  d->ctrl[cyl.CommandActuator("u1")] = 1;  // fill chamber P
   mj_forward(m, d);
   EXPECT_EQ(d->act_dot[other_act], kForeignActDot);
   EXPECT_EQ(d->actuator_force[other], kForeignGain * 2 + kForeignBias);
@@ -459,7 +452,7 @@ TEST_F(EngineState, PwmStateIsTime) {
   const mjModel* m = rig.m();
   CylinderInfo cyl = rig.cylinder();
   mjData* on = rig.d();
-  on->ctrl[CommandId(cyl, "duty")] = 0.5;
+  on->ctrl[cyl.CommandActuator("duty")] = 0.5;
   on->act[0] = 3e4, on->act[1] = 6e4;
   on->time = 0.003;  // within the on-time of the period
   mjData* off = mj_copyData(nullptr, m, on);
@@ -519,7 +512,7 @@ TEST(BadCommands, NoNaNFromBadCommands) {
     CylinderInfo cyl = rig.cylinder();
     for (int i = 0; i < 400; ++i) {
       PatternCommand(cyl, d, i);
-      d->ctrl[CommandId(cyl, c.signal)] = c.value;
+      d->ctrl[cyl.CommandActuator(c.signal)] = c.value;
       mj_step(m, d);
     }
     EXPECT_TRUE(AllFinite(State(m, d)));
@@ -570,8 +563,8 @@ TEST(BadCommands, ValvesReadBadCommandsAsMuJoCoDoes) {
     SetChamberPressure(m, given, cyl, Chamber::kP, 2e5);
     SetChamberPressure(m, given, cyl, Chamber::kN, 2e5);
     mjData* sanitized = mj_copyData(nullptr, m, given);
-    for (const auto& [signal, u] : c.given) given->ctrl[CommandId(cyl, signal)] = u;
-    for (const auto& [signal, u] : c.sanitized) sanitized->ctrl[CommandId(cyl, signal)] = u;
+    for (const auto& [signal, u] : c.given) given->ctrl[cyl.CommandActuator(signal)] = u;
+    for (const auto& [signal, u] : c.sanitized) sanitized->ctrl[cyl.CommandActuator(signal)] = u;
     mj_forward(m, given);
     mj_forward(m, sanitized);
     EXPECT_TRUE(SameBits(Array(given->act_dot, m->na), Array(sanitized->act_dot, m->na)));

@@ -37,11 +37,8 @@ class WindowRunner {
       // first), so the ids of the model the log was prepared on point one actuator off here
       std::vector<int> ids;
       for (size_t j = 0; j < cyl.command_names.size(); ++j) {
-        int id = cyl.command_actuators[j];
-        for (const auto& [signal, actuator] : cylinders_.back().command_actuators) {
-          if (signal == cyl.command_names[j]) id = actuator;
-        }
-        ids.push_back(id);
+        int id = cylinders_.back().CommandActuator(cyl.command_names[j]);
+        ids.push_back(id >= 0 ? id : cyl.command_actuators[j]);
       }
       command_ids_.push_back(std::move(ids));
     }

@@ -20,13 +20,6 @@ std::string Format(double value) {
   return text.str();
 }
 
-int CommandActuator(const CylinderInfo& c, const std::string& signal) {
-  for (const auto& [name, id] : c.command_actuators) {
-    if (name == signal) return id;
-  }
-  return -1;
-}
-
 // the series of one chamber; "" or why not
 std::string ExtractChamber(const mjModel* m, const log::Log& log, const CylinderInfo& c, Chamber k,
                            ChamberSeries* series) {
@@ -48,7 +41,7 @@ std::string ExtractChamber(const mjModel* m, const log::Log& log, const Cylinder
   s.period = log.Period();
   s.p_supply = c.p_supply;
   s.p_exhaust = c.p_exhaust;
-  int actuator = CommandActuator(c, command);
+  int actuator = c.CommandActuator(command);
   if (actuator >= 0 && m->actuator_ctrllimited[actuator]) {
     s.u_min = m->actuator_ctrlrange[2 * actuator];
     s.u_max = m->actuator_ctrlrange[2 * actuator + 1];

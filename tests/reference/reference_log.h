@@ -4,6 +4,7 @@
 #define PNEUMATIC_TESTS_REFERENCE_LOG_H_
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "log_csv.h"
@@ -22,27 +23,26 @@ inline const char* RigModelFile(Rig rig) {
 }
 
 // samples of Simulate() as a log of cylinder "cyl": the rig's commands, then p_P, p_N, x, v
-inline log::Log ToLog(Rig rig, const std::vector<Sample>& samples) {
-  std::vector<std::string> commands;
+// the rig's commands by log signal (log_format.md): u1..u4 on rig A, u on B, uP and uN on C
+inline std::vector<std::pair<std::string, double>> NamedCommands(Rig rig, const RigCommand& c) {
   switch (rig) {
-    case Rig::kOnOff: commands = {"u1", "u2", "u3", "u4"}; break;
-    case Rig::kProportional: commands = {"u"}; break;
-    case Rig::kPerChamber: commands = {"uP", "uN"}; break;
+    case Rig::kOnOff: return {{"u1", c.u1}, {"u2", c.u2}, {"u3", c.u3}, {"u4", c.u4}};
+    case Rig::kProportional: return {{"u", c.u}};
+    case Rig::kPerChamber: return {{"uP", c.uP}, {"uN", c.uN}};
   }
+  return {};
+}
+
+inline log::Log ToLog(Rig rig, const std::vector<Sample>& samples) {
   log::Log out;
   out.comments.push_back(std::string("reference: rigs.md, fine-step RK4; rig: models_mjcf/") + RigModelFile(rig));
-  for (const std::string& c : commands) out.columns.push_back({"cyl", c});
+  for (const auto& [signal, value] : NamedCommands(rig, RigCommand{})) out.columns.push_back({"cyl", signal});
   for (const char* m : {"p_P", "p_N", "x", "v"}) out.columns.push_back({"cyl", m});
   out.values.assign(out.columns.size(), {});
   for (const Sample& s : samples) {
     out.time.push_back(s.time);
-    const RigCommand& c = s.command;
     std::vector<double> row;
-    switch (rig) {
-      case Rig::kOnOff: row = {c.u1, c.u2, c.u3, c.u4}; break;
-      case Rig::kProportional: row = {c.u}; break;
-      case Rig::kPerChamber: row = {c.uP, c.uN}; break;
-    }
+    for (const auto& [signal, value] : NamedCommands(rig, s.command)) row.push_back(value);
     for (double v : {s.state.p_P, s.state.p_N, s.state.x, s.state.v}) row.push_back(v);
     for (size_t i = 0; i < row.size(); ++i) out.values[i].push_back(row[i]);
   }

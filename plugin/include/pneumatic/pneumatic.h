@@ -91,6 +91,13 @@ struct CylinderInfo {
   // their ctrl is the command of log_format.md (with commands=chambers these are the
   // chamber actuators themselves: write the commands here, not by actuator name)
   std::vector<std::pair<std::string, int>> command_actuators;
+  // the actuator whose ctrl is command `signal` ("uP", ...), or -1 if this cylinder has none
+  int CommandActuator(const std::string& signal) const {
+    for (const auto& [command, id] : command_actuators) {
+      if (command == signal) return id;
+    }
+    return -1;
+  }
   double p_atm = 0;       // Pa abs: the reference of the gauge activations
   double p_supply = 0;    // Pa abs
   double p_exhaust = 0;   // Pa abs
