@@ -221,6 +221,7 @@ nlohmann::json DiagnosisJson(const dg::Diagnosis& d) {
                                   {"delta_ic", Number(c.delta_ic)},
                                   {"score", Number(c.delta_ic)},
                                   {"explains", c.explains},
+                                  {"refinement", c.refinement},
                                   {"evaluations", c.evaluations},
                                   {"seconds", c.seconds}});
     }

@@ -4,7 +4,7 @@
 // heat conductance, an orifice leak): a real effect will not follow any one form, and a simple
 // form that captures its signature generalises to held-out data better than a rich one. Where one
 // simple form leaves much unexplained, a second form of the effect is tried in the rounds the first
-// leads (Candidate::refinement: a dead time, laminar leaks, a supply tank, ...).
+// leads or where it explains the gap (Candidate::refinement: a dead time, laminar leaks, a supply tank, ...).
 //
 // A candidate changes the model in up to three ways: keys of a cylinder's "pneumatic:" text
 // (SetParameter), fields of mjModel (a joint's frictionloss, a body's mass), and the signal model
@@ -85,7 +85,8 @@ struct Candidate {
   std::vector<ModelEdit> edits;
   std::vector<EffectParameter> parameters;
   // a richer form of an effect that has a simpler one in the library: fitted only in a round that
-  // the effect's simpler form leads (diagnose.h), as its fit is costly (a state to simulate)
+  // the effect's simpler form leads or explains the gap by itself (diagnose.h), as its fit is costly
+  // (a state to simulate)
   bool refinement = false;
 };
 
