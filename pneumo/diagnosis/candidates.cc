@@ -277,7 +277,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
   // valve opens at a command of 1/2 or more (plugin/src/valves.cc), so the delayed command's mean over
   // a step switches it at the model step nearest the delayed switch (rig A: to 50 us), where the
   // armature delays of the first form lose pulses shorter than their opening delay. A refinement
-  // (candidates.h) as the Pade form is: fitted in the rounds valve_delay leads. Up to 50 ms, scanned
+  // (candidates.h) as the Pade form is: fitted in the rounds valve_delay leads or explains. Up to 50 ms, scanned
   // in half rows: the prediction error has a local minimum wherever the delayed commands line up with
   // the log's own oscillations (on a 500 Hz rig C log of an 8 ms latency, at 3.5, 5.5, 8 and 11 ms;
   // the true one's basin about a row wide)
@@ -437,7 +437,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
   // leakage, second form, a refinement (candidates.h): laminar leaks along the same paths, the mass
   // flow G dp proportional to the pressure difference (the plugin's *_leak_conductance, the
   // project's own form: the viscous flow of a seal's clearance gap, where the orifice form is a
-  // hole's). The two forms are the ends of a real leak's range; where the first leads a round, the
+  // hole's). The two forms are the ends of a real leak's range; where the first leads a round or explains, the
   // held-out gap tells which end is nearer. Its range is the orifice form's, converted at a choked
   // flow from the supply to the exhaust: G = C1 a p_s / (sqrt(T) (p_s - p_e)), with paper 001 eq. 2's
   // C1 = sqrt(gamma/r (2/(gamma+1))^((gamma+1)/(gamma-1))) for the cylinder's gas
@@ -475,7 +475,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
   // over the log's history (SignalModel::history_estimate). A gas temperature relaxes to the wall's
   // over tenths of a second, longer than a 20 ms warm-up, so the first form starts each window with
   // its gas too close to the wall's temperature after a filling or a venting. The history costs a
-  // simulation of the whole log per evaluation, so only the rounds the first form leads pay it
+  // simulation of the whole log per evaluation, so only the rounds the first form leads or explains pay it
   per_cylinder("heat_transfer", "gas temperature as a state, one wall heat conductance, the temperatures estimated over the log's history",
                [&](const CylinderSeries& cyl, Candidate* c) {
     energy_equation(cyl, c);

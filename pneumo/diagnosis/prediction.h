@@ -85,7 +85,7 @@ struct Prediction {
 // simulation of the log (on a thread of its own when there are two or more). A gas temperature (thermal_model=energy) relaxes over tenths of a second
 // and gains too, but heat_transfer's first form leaves it to the warm-up: it is fitted in every
 // diagnosis round, and the history would cost it two to four times its fit (README); its second
-// form, fitted only in the rounds the first leads, asks for it.
+// form, fitted only in the rounds the first leads or explains, asks for it.
 bool EstimatesOverTheHistory(const mjModel* m, const SignalModel& signals);
 
 // Predicts `meas` with m (attached) on up to `threads` threads (windows are independent; each
