@@ -437,7 +437,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
   // leakage, second form, a refinement (candidates.h): laminar leaks along the same paths, the mass
   // flow G dp proportional to the pressure difference (the plugin's *_leak_conductance, the
   // project's own form: the viscous flow of a seal's clearance gap, where the orifice form is a
-  // hole's). The two forms are the ends of a real leak's range; where the first leads a round or explains, the
+  // hole's). The two forms are the ends of a real leak's range; where the first leads a round or is its runner-up, the
   // held-out gap tells which end is nearer. Its range is the orifice form's, converted at a choked
   // flow from the supply to the exhaust: G = C1 a p_s / (sqrt(T) (p_s - p_e)), with paper 001 eq. 2's
   // C1 = sqrt(gamma/r (2/(gamma+1))^((gamma+1)/(gamma-1))) for the cylinder's gas
@@ -475,7 +475,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
   // over the log's history (SignalModel::history_estimate). A gas temperature relaxes to the wall's
   // over tenths of a second, longer than a 20 ms warm-up, so the first form starts each window with
   // its gas too close to the wall's temperature after a filling or a venting. The history costs a
-  // simulation of the whole log per evaluation, so only the rounds the first form leads or explains pay it
+  // simulation of the whole log per evaluation, so only the rounds the first form leads or is the runner-up of pay it
   per_cylinder("heat_transfer", "gas temperature as a state, one wall heat conductance, the temperatures estimated over the log's history",
                [&](const CylinderSeries& cyl, Candidate* c) {
     energy_equation(cyl, c);

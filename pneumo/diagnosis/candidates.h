@@ -4,7 +4,8 @@
 // heat conductance, an orifice leak): a real effect will not follow any one form, and a simple
 // form that captures its signature generalises to held-out data better than a rich one. Where one
 // simple form leaves much unexplained, a second form of the effect is tried in the rounds the first
-// leads or where it explains the gap (Candidate::refinement: a dead time, laminar leaks, a supply tank, ...).
+// leads or where it is the runner-up that explains the gap (Candidate::refinement: a dead time, laminar
+// leaks, a supply tank, ...; diagnose.cc).
 //
 // A candidate changes the model in up to three ways: keys of a cylinder's "pneumatic:" text
 // (SetParameter), fields of mjModel (a joint's frictionloss, a body's mass), and the signal model

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <map>
 #include <set>
 
 namespace pneumatic::diagnosis {
@@ -412,20 +413,37 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     for (const Candidate& c : candidates) {
       if (!c.refinement && eligible(c)) try_candidate(c);
     }
-    // a richer form of an effect (Candidate::refinement) is fitted only when its effect leads the
-    // round by the dIC of its simpler form, or when that simpler form explains the gap by itself:
-    // it refines a verdict or a contender, and costs no fit otherwise. A contender is refined too
-    // because a simple form can be a poor stand-in for its own effect while another effect leads:
-    // on rig A driven open loop, commands 8 ms late, the armature delays lose every pulse shorter
-    // than their opening delay and explained 14.7 % of the gap, a tube 28.2 %; the tube was
-    // accepted first, and the exact latency, fitted only after it, found half the dead time
-    std::set<std::string> refined;
-    const CandidateResult* lead = nullptr;
+    // a richer form of an effect (Candidate::refinement) is fitted only for the round's two best
+    // effects by the dIC of their simpler forms: the leader, and the runner-up, the best of the
+    // other effects whose simpler forms explain the gap by themselves. It refines a verdict or its
+    // closest contender, and costs no fit otherwise. The runner-up is refined because a simple form
+    // can be a poor stand-in for its own effect while another effect leads: on rig A driven open
+    // loop, commands 8 ms late, the armature delays lose every pulse shorter than their opening
+    // delay and explained 14.7 % of the gap, a tube 28.2 %; the tube was accepted, and the exact
+    // latency, fitted only after it, found half the dead time. Two, not every effect that explains,
+    // bounds the cost: a richer form may simulate the whole log (a supply tank, the gas
+    // temperatures over the history), and on a 20 s rig C log of a leak (bench_diagnose --speed)
+    // the tank of the fourth effect cost 37 s of a 124 s diagnosis. An effect ranked lower is
+    // refined in a later round if it is among the two best there
+    std::map<std::string, double> best_simple;  // each effect's best dIC among its simpler forms
+    std::map<std::string, bool> effect_explains;
     for (const CandidateResult& result : r.ranking) {
-      if (!std::isnan(result.delta_ic) && (!lead || result.delta_ic < lead->delta_ic)) lead = &result;
-      if (result.explains) refined.insert(result.effect);
+      if (std::isnan(result.delta_ic)) continue;
+      auto [best, inserted] = best_simple.try_emplace(result.effect, result.delta_ic);
+      if (!inserted) best->second = std::min(best->second, result.delta_ic);
+      effect_explains[result.effect] = effect_explains[result.effect] || result.explains;
     }
-    if (lead) refined.insert(lead->effect);
+    std::vector<std::string> by_dic;
+    for (const auto& [effect, dic] : best_simple) by_dic.push_back(effect);
+    std::stable_sort(by_dic.begin(), by_dic.end(),
+                     [&](const std::string& a, const std::string& b) { return best_simple[a] < best_simple[b]; });
+    std::set<std::string> refined;
+    if (!by_dic.empty()) refined.insert(by_dic[0]);
+    for (size_t i = 1; i < by_dic.size(); ++i) {
+      if (!effect_explains[by_dic[i]]) continue;
+      refined.insert(by_dic[i]);
+      break;
+    }
     for (const Candidate& c : candidates) {
       if (c.refinement && refined.count(c.effect) && eligible(c)) try_candidate(c);
     }

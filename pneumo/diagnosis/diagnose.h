@@ -24,7 +24,8 @@
 // (Candidate::refinement: supply_drop's tank, valve_delay's dead time and exact latency,
 // line_dynamics' transport delay, leakage's laminar leaks, heat_transfer's gas temperatures
 // estimated over the history) is fitted only in a round that the effect's
-// simpler form leads by dIC or explains the gap by itself, with the joint refit's iterations (refit_iterations) and a finer scan
+// simpler form leads by dIC or is the runner-up (the best other effect whose simpler form explains the
+// gap by itself), with the joint refit's iterations (refit_iterations) and a finer scan
 // (refinement_scan_grid_points), and then ranked with the rest.
 // How far: the held-out gap before and after, per signal and as one number (effect_fit.h).
 #ifndef PNEUMATIC_DIAGNOSIS_DIAGNOSE_H_
@@ -93,7 +94,7 @@ struct CandidateResult {
   double improvement = kNotComputed;  // (gap_before - gap) / gap_before on the held-out log
   double delta_ic = kNotComputed;
   bool explains = false;  // passes both criteria
-  bool refinement = false;  // a richer form (Candidate::refinement), fitted because its effect led or explained
+  bool refinement = false;  // a richer form (Candidate::refinement), fitted because its effect led or was the runner-up
   int evaluations = 0;
   double seconds = 0;
 };
