@@ -426,24 +426,21 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     // the tank of the fourth effect cost 37 s of a 124 s diagnosis. An effect ranked lower is
     // refined in a later round if it is among the two best there
     std::map<std::string, double> best_simple;  // each effect's best dIC among its simpler forms
-    std::map<std::string, bool> effect_explains;
+    std::set<std::string> explaining;           // the effects with a simpler form that explains
     for (const CandidateResult& result : r.ranking) {
       if (std::isnan(result.delta_ic)) continue;
       auto [best, inserted] = best_simple.try_emplace(result.effect, result.delta_ic);
       if (!inserted) best->second = std::min(best->second, result.delta_ic);
-      effect_explains[result.effect] = effect_explains[result.effect] || result.explains;
+      if (result.explains) explaining.insert(result.effect);
     }
-    std::vector<std::string> by_dic;
-    for (const auto& [effect, dic] : best_simple) by_dic.push_back(effect);
-    std::stable_sort(by_dic.begin(), by_dic.end(),
-                     [&](const std::string& a, const std::string& b) { return best_simple[a] < best_simple[b]; });
-    std::set<std::string> refined;
-    if (!by_dic.empty()) refined.insert(by_dic[0]);
-    for (size_t i = 1; i < by_dic.size(); ++i) {
-      if (!effect_explains[by_dic[i]]) continue;
-      refined.insert(by_dic[i]);
-      break;
+    std::string leader, runner_up;  // ties go to the first by name
+    for (const auto& [effect, dic] : best_simple) {
+      if (leader.empty() || dic < best_simple[leader]) leader = effect;
     }
+    for (const auto& [effect, dic] : best_simple) {
+      if (effect != leader && explaining.count(effect) && (runner_up.empty() || dic < best_simple[runner_up])) runner_up = effect;
+    }
+    const std::set<std::string> refined = {leader, runner_up};  // "" names no effect
     for (const Candidate& c : candidates) {
       if (c.refinement && refined.count(c.effect) && eligible(c)) try_candidate(c);
     }
