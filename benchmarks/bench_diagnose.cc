@@ -17,8 +17,9 @@
 //                  proportional valves' dead time (Pade)             -> a slower first-order spool; richer:
 //                                                                       a dead time (Pade) before the lag
 //                  commands reaching the valves 8 ms late (exact)    -> the same
-//   leakage        laminar leaks (the second form's own), or a piston -> orifice leaks; richer: laminar leaks
-//                  leak half laminar and half an orifice (in neither)
+//   leakage        laminar leaks (the second form's own), or a piston -> orifice leaks; richer: laminar leaks,
+//                  leak half laminar and half an orifice (in neither     or both side by side
+//                  end form; the third form's own)
 //   heat_transfer  gas energy equation, per-chamber wall conductance -> one conductance for both chambers
 //   supply_drop    a shared reservoir behind a restrictive line      -> a lower constant supply pressure, or
 //                  (the candidate's own form), or a small manifold      a tank behind a restrictive line
@@ -275,9 +276,10 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
     const double g = valve == "proportional_per_chamber" ? 2e-10 : valve == "onoff" ? 1e-10 : 2e-9;
     t.push_back({"laminar leak across the piston " + num(g) + " kg/(s Pa)", {"leakage"},
                  {{"cyl", {}, {}, {}, {{"piston_leak_conductance", num(g)}, {"P.atmosphere_leak_conductance", num(g / 4)}}}}});
-    // a leak in neither of leakage's forms: half of the piston seal's leak laminar, half an orifice
-    // passing as much at a 3 bar difference (choked, 4 bar to 1 bar: paper 001 eq. 2 with C_d = 1,
-    // C1 = 0.0404 s K^0.5 / m for air, 293 K), and the orifice alone to the atmosphere
+    // a leak in neither of leakage's end forms (the third form's: both laws side by side): half of
+    // the piston seal's leak laminar, half an orifice passing as much at a 3 bar difference (choked,
+    // 4 bar to 1 bar: paper 001 eq. 2 with C_d = 1, C1 = 0.0404 s K^0.5 / m for air, 293 K), and the
+    // orifice alone to the atmosphere
     const double orifice = 0.5 * g * 3e5 / (0.0404 / std::sqrt(293.0) * 4e5);
     t.push_back({"leak across the piston, half laminar and half an orifice of " + num(orifice) + " m^2, and an orifice to the atmosphere",
                  {"leakage"},

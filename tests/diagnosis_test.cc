@@ -723,6 +723,80 @@ TEST(DiagnosisFit, RecoversALaminarLeakTheOrificeFormOnlyApproximates) {
   EXPECT_LT(laminar.values[2], 4 * laminar.standard_errors[2] + 1e-3 * g);
 }
 
+// The mass flow (kg/s) of an orifice of area a from p_up to p_down: paper 001 eq. 2 (Sanville 1971)
+// with C_d = 1 and critical ratio 0.528, for air at 293.15 K (the rigs' gas), as the plugin's leaks
+double AirOrificeFlow(double a, double p_up, double p_down) {
+  const double gamma = 1.4, r = 287, t = 293.15, ratio = p_down / p_up;
+  const double c1 = std::sqrt(gamma / r * std::pow(2 / (gamma + 1), (gamma + 1) / (gamma - 1)));
+  const double c2 = std::sqrt(2 * gamma / (r * (gamma - 1)));
+  if (ratio <= 0.528) return a * c1 * p_up / std::sqrt(t);
+  return a * c2 * p_up / std::sqrt(t) * std::pow(ratio, 1 / gamma) * std::sqrt(1 - std::pow(ratio, (gamma - 1) / gamma));
+}
+
+// leakage's third form on a rig C log of a leak in neither end form: across the piston half
+// laminar (1e-10 kg/(s Pa)) and half an orifice passing as much choked from 4 to 1 bar (3.2e-8
+// m^2), and that orifice's half from P to the atmosphere. Started as the diagnosis starts it, each
+// law at half of its own form's fit and without the scans, it fits the training windows better than
+// either end form (here 0.0120 against the laminar form's 0.0121 and the orifice form's 0.0238), and
+// its piston leak's flow over the logged chamber pressures is nearer the truth's than either's
+// (RMS error 25 % of the truth's RMS, against 42 % and 47 %). The log does not tell the laws' shares
+// apart well (here 1.3 +- 1.5 e-8 m^2 and 2.0 +- 0.9 e-10 kg/(s Pa)), nor which chamber leaks to
+// the atmosphere: the test asks for the flow, not the parameters.
+TEST(DiagnosisFit, RecoversALeakBetweenLaminarAndOrificeWithBothLaws) {
+  std::string error;
+  ModelPtr clean = LoadEditedModel(kRigC, {}, &error);
+  ASSERT_TRUE(clean) << error;
+  const double g = 1e-10, area = g * 3e5 / AirOrificeFlow(1, 4e5, 1e5);
+  const ModelEdit leak{"cyl", {}, {}, {}, {{"piston_leak_conductance", Number(g)}, {"piston_leak_area", Number(area)},
+                                           {"P.atmosphere_leak_area", Number(area / 2)}}};
+  const log::Log log = RigCLog(7, 2.0, 0, 1, {leak});
+  std::optional<Measurements> meas = PrepareMeasurements(clean.get(), log, 100, &error);
+  ASSERT_TRUE(meas) << error;
+  const std::optional<Candidate> orifice_form = FirstForm(clean.get(), *meas, "leakage");
+  const std::optional<Candidate> laminar_form = RicherForm(clean.get(), *meas, "leakage", "laminar leaks across");
+  std::optional<Candidate> both = RicherForm(clean.get(), *meas, "leakage", "side by side");
+  ASSERT_TRUE(orifice_form && laminar_form && both);
+  const CandidateFit orifice = FitOnRigC(*orifice_form, *meas, 12), laminar = FitOnRigC(*laminar_form, *meas, 30);
+  ASSERT_EQ(orifice.error, "");
+  ASSERT_EQ(laminar.error, "");
+  ASSERT_EQ(both->parameters.size(), 6u);
+  for (int i = 0; i < 3; ++i) {
+    ASSERT_EQ(both->parameters[i].name, orifice_form->parameters[i].name);
+    ASSERT_EQ(both->parameters[3 + i].name, laminar_form->parameters[i].name);
+    EXPECT_EQ(both->parameters[i].seed_fraction, 0.5);
+    both->parameters[i].initial = 0.5 * orifice.values[i];
+    both->parameters[3 + i].initial = 0.5 * laminar.values[i];
+  }
+  FitOptions o;
+  o.gap.signal_scale = SignalScales(*meas);
+  o.gap.windows = MakeWindows(meas->rows(), 100, 10);
+  o.max_iterations = 30;
+  o.scan_points = 0;
+  const CandidateFit fit = FitCandidate(kRigC, Scenario{}, *both, *meas, o);
+  ASSERT_EQ(fit.error, "");
+  EXPECT_LT(fit.train_gap_after, std::min(orifice.train_gap_after, laminar.train_gap_after));
+  // the piston leak's flow from P to N (kg/s) at each logged pair of chamber pressures, and each
+  // fit's RMS error in it relative to the truth's RMS
+  const std::vector<double>& p_P = log.values[log.FindColumn("cyl", "p_P")];
+  const std::vector<double>& p_N = log.values[log.FindColumn("cyl", "p_N")];
+  auto piston_flow = [](double a, double conductance, double p1, double p2) {
+    const double orifice_flow = p1 >= p2 ? AirOrificeFlow(a, p1, p2) : -AirOrificeFlow(a, p2, p1);
+    return conductance * (p1 - p2) + orifice_flow;
+  };
+  auto relative_error = [&](double a, double conductance) {
+    double truth_ss = 0, error_ss = 0;
+    for (size_t i = 0; i < p_P.size(); ++i) {
+      const double truth = piston_flow(area, g, p_P[i], p_N[i]);
+      const double e = piston_flow(a, conductance, p_P[i], p_N[i]) - truth;
+      truth_ss += truth * truth, error_ss += e * e;
+    }
+    return std::sqrt(error_ss / truth_ss);
+  };
+  const double both_error = relative_error(fit.values[0], fit.values[3]);
+  EXPECT_LT(both_error, relative_error(orifice.values[0], 0));
+  EXPECT_LT(both_error, relative_error(0, laminar.values[0]));
+}
+
 // friction's two forms state their bounds in the joint's units: x = gear q, so a force F on the
 // piston is gear F on the joint and a viscous coefficient b is gear^2 b. On rig C with the
 // transmission's gear set to 0.05 (x = 0.05 q, a lever), the Coulomb bound is half the largest force
@@ -945,7 +1019,8 @@ TEST(DiagnosisEndToEnd, FindsABiasedPressureSensorAndNothingOnACleanLog) {
   // every candidate tried is ranked (a failed fit is listed as failed, never dropped): one each of
   // leakage, payload and friction, sensor_bias once per signal, and the richer forms of the round's
   // two best effects by their simpler forms' dIC, the leader and the best other effect whose simpler
-  // form explains the gap: leakage's laminar form (one), friction's viscous and LuGre forms (two);
+  // form explains the gap: leakage's laminar form and both laws side by side (two), friction's
+  // viscous and LuGre forms (two);
   // none of any other effect
   for (const Diagnosis* diagnosis : {&d, &clean}) {
     const std::vector<CandidateResult>& ranking = diagnosis->rounds[0].ranking;
@@ -969,7 +1044,7 @@ TEST(DiagnosisEndToEnd, FindsABiasedPressureSensorAndNothingOnACleanLog) {
     EXPECT_EQ(simple, (std::map<std::string, int>{{"friction", 1}, {"leakage", 1}, {"payload", 1}, {"sensor_bias", 3}}));
     std::map<std::string, int> expected_richer;
     for (const std::string& refined : {leader, runner_up}) {
-      if (refined == "leakage") expected_richer["leakage"] = 1;
+      if (refined == "leakage") expected_richer["leakage"] = 2;
       if (refined == "friction") expected_richer["friction"] = 2;
     }
     EXPECT_EQ(richer, expected_richer) << "leader " << leader << ", runner-up " << runner_up;

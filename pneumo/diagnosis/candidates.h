@@ -5,7 +5,7 @@
 // form that captures its signature generalises to held-out data better than a rich one. Where one
 // simple form leaves much unexplained, a second form of the effect is tried in the rounds the first
 // leads or where it is the runner-up that explains the gap (Candidate::refinement: a dead time, laminar
-// leaks, a supply tank, ...; diagnose.cc).
+// leaks, leaks both laminar and orifice, a supply tank, ...; diagnose.cc).
 //
 // A candidate changes the model in up to three ways: keys of a cylinder's "pneumatic:" text
 // (SetParameter), fields of mjModel (a joint's frictionloss, a body's mass), and the signal model
@@ -76,6 +76,10 @@ struct EffectParameter {
   // (FitOptions: the grid scan), for a cost with local minima about that far apart, which a
   // Levenberg-Marquardt start outside the true one's basin cannot leave
   double scan_step = 0;
+  // > 0: where a form of the same effect fitted earlier in the round has a parameter of this name
+  // (its best by dIC), the fit starts at this fraction of that form's value, and without the scans
+  // (a richer form that sums two simpler ones: each at half its own fit)
+  double seed_fraction = 0;
   // sets the value on a model (with the candidate's edits) and the signal model: "" or why not
   std::function<std::string(mjModel*, SignalModel*, double)> apply;
 };

@@ -365,9 +365,29 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
              std::find(dropped.begin(), dropped.end(), c.effect) == dropped.end() &&
              (options.effects.empty() || std::find(options.effects.begin(), options.effects.end(), c.effect) != options.effects.end());
     };
+    // c with its seeded parameters (EffectParameter::seed_fraction) started from the fit of the same
+    // name in this round's best form of the same effect; *seeded says whether any was
+    auto seeded_from_round = [&](Candidate c, bool* seeded) {
+      *seeded = false;
+      for (EffectParameter& p : c.parameters) {
+        if (!(p.seed_fraction > 0)) continue;
+        const CandidateResult* best = nullptr;
+        double value = 0;
+        for (const CandidateResult& other : r.ranking) {
+          if (other.effect != c.effect || std::isnan(other.delta_ic) || (best && other.delta_ic >= best->delta_ic)) continue;
+          for (const ParameterResult& q : other.parameters) {
+            if (q.name == p.name) best = &other, value = q.value;
+          }
+        }
+        if (best) p.initial = std::clamp(p.seed_fraction * value, p.lower, p.upper), *seeded = true;
+      }
+      return c;
+    };
     // fits c on the training log and scores it on the held-out log, into r.ranking and tried
-    auto try_candidate = [&](const Candidate& c) {
+    auto try_candidate = [&](const Candidate& unseeded) {
       const auto tc = std::chrono::steady_clock::now();
+      bool seeded = false;
+      const Candidate c = seeded_from_round(unseeded, &seeded);
       say("round " + std::to_string(round + 1) + ": fitting " + c.effect + " (" + c.form + ")");
       CandidateResult result;
       result.effect = c.effect, result.form = c.form, result.refinement = c.refinement;
@@ -378,6 +398,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
       // by the data
       fo.max_iterations = c.refinement ? std::max(options.max_iterations, options.refit_iterations) : options.max_iterations;
       if (c.refinement) fo.scan_grid_points = options.refinement_scan_grid_points;
+      if (seeded) fo.scan_points = 0;  // started from the fits of its simpler forms
       fo.progress = options.progress;
       CandidateFit fit = FitCandidate(model_path, scenario, c, *train, fo);
       result.evaluations = fit.evaluations;

@@ -22,11 +22,12 @@
 // equations (rig B against tests/reference, RK4 at 1 us) a payload 0.2 % lighter had otherwise
 // "explained" 22 % of a 0.0005 gap that the model's 0.1 ms Euler step leaves. No such candidate: `none`. A richer form of an effect
 // (Candidate::refinement: supply_drop's tank, valve_delay's dead time and exact latency,
-// line_dynamics' transport delay, leakage's laminar leaks, heat_transfer's gas temperatures
-// estimated over the history) is fitted only in a round that the effect's
-// simpler form leads by dIC or is the runner-up (the best other effect whose simpler form explains the
-// gap by itself), with the joint refit's iterations (refit_iterations) and a finer scan
-// (refinement_scan_grid_points), and then ranked with the rest.
+// line_dynamics' transport delay, leakage's laminar leaks and both laws side by side,
+// heat_transfer's gas temperatures estimated over the history) is fitted only in a round that the
+// effect's simpler form leads by dIC or is the runner-up (the best other effect whose simpler form
+// explains the gap by itself), with the joint refit's iterations (refit_iterations) and a finer scan
+// (refinement_scan_grid_points), or from the round's fits of its simpler forms where its parameters
+// say so (EffectParameter::seed_fraction), and then ranked with the rest.
 // How far: the held-out gap before and after, per signal and as one number (effect_fit.h).
 #ifndef PNEUMATIC_DIAGNOSIS_DIAGNOSE_H_
 #define PNEUMATIC_DIAGNOSIS_DIAGNOSE_H_
