@@ -464,7 +464,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
   // side by side (the project's own form). A real leak lies between the two ends, and a seal may
   // leak through its clearance gap and through a nick at once; each end alone leaves such a leak's
   // shape unexplained: rig B driven open loop, a piston leak half laminar and half an orifice, the
-  // laminar form left 0.0235 against the clean log's 0.0125, and a spurious payload took part of it.
+  // laminar form left 0.0235 against the clean log's 0.0119, and a spurious payload took part of it.
   // Six parameters would cost the scans a grid of 36 points and more, so the fit starts from the two
   // forms above instead, each law at half its own fit (seed_fraction): the sum starts as the mean of
   // two fits of the same leak
