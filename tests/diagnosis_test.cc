@@ -225,17 +225,19 @@ TEST(DiagnosisCandidates, LaminarLeakRangeFollowsTheCylindersGas) {
 }
 
 // `form` fitted on a rig's 500 Hz log as the diagnosis rounds fit (the default windows: 0.2 s
-// after a 20 ms warm-up), with at most max_iterations of Levenberg-Marquardt
-CandidateFit FitOnRig(const std::string& rig, const Candidate& form, const Measurements& meas, int max_iterations) {
+// after a 20 ms warm-up), with at most max_iterations of Levenberg-Marquardt; without the scans
+// before it where `scans` is false (a form started from its simpler forms' fits)
+CandidateFit FitOnRig(const std::string& rig, const Candidate& form, const Measurements& meas, int max_iterations, bool scans = true) {
   FitOptions o;
   o.gap.signal_scale = SignalScales(meas);
   o.gap.windows = MakeWindows(meas.rows(), 100, 10);
   o.max_iterations = max_iterations;
+  if (!scans) o.scan_points = 0;
   return FitCandidate(rig, Scenario{}, form, meas, o);
 }
 
-CandidateFit FitOnRigC(const Candidate& form, const Measurements& meas, int max_iterations) {
-  return FitOnRig(kRigC, form, meas, max_iterations);
+CandidateFit FitOnRigC(const Candidate& form, const Measurements& meas, int max_iterations, bool scans = true) {
+  return FitOnRig(kRigC, form, meas, max_iterations, scans);
 }
 
 // supply_drop's tank form: its edit adds one reservoir that feeds the cylinder, its two parameters
@@ -767,12 +769,7 @@ TEST(DiagnosisFit, RecoversALeakBetweenLaminarAndOrificeWithBothLaws) {
     both->parameters[i].initial = 0.5 * orifice.values[i];
     both->parameters[3 + i].initial = 0.5 * laminar.values[i];
   }
-  FitOptions o;
-  o.gap.signal_scale = SignalScales(*meas);
-  o.gap.windows = MakeWindows(meas->rows(), 100, 10);
-  o.max_iterations = 30;
-  o.scan_points = 0;
-  const CandidateFit fit = FitCandidate(kRigC, Scenario{}, *both, *meas, o);
+  const CandidateFit fit = FitOnRigC(*both, *meas, 30, /*scans=*/false);
   ASSERT_EQ(fit.error, "");
   EXPECT_LT(fit.train_gap_after, std::min(orifice.train_gap_after, laminar.train_gap_after));
   // the piston leak's flow from P to N (kg/s) at each logged pair of chamber pressures, and each

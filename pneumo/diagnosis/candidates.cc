@@ -62,6 +62,30 @@ double LaminarConductancePerArea(const mjModel* m, const CylinderSeries& cyl) {
   return c1 * cyl.info.p_supply / (std::sqrt(Parameter(m, n, "temperature", 293.15)) * (cyl.info.p_supply - cyl.info.p_exhaust));
 }
 
+// leakage's orifice areas (m^2) across the piston and from each chamber to the atmosphere, from
+// 1e-9 m^2 (a leak far below any valve's, about 0.03 mm across) on a log scale, or the model's own
+std::vector<EffectParameter> OrificeLeakAreas(const mjModel* m, const CylinderSeries& cyl) {
+  const std::string& n = cyl.info.name;
+  std::vector<EffectParameter> areas;
+  for (const char* key : {"piston_leak_area", "P.atmosphere_leak_area", "N.atmosphere_leak_area"}) {
+    areas.push_back(KeyParameter(n, key, std::max(Parameter(m, n, key, 0), 1e-9), 1e-12, 1e-5, 1e-9, true));
+  }
+  return areas;
+}
+
+// leakage's laminar conductances (kg/(s Pa)) along the same paths, on the orifice areas' range
+// converted (LaminarConductancePerArea)
+std::vector<EffectParameter> LaminarLeakConductances(const mjModel* m, const CylinderSeries& cyl) {
+  const std::string& n = cyl.info.name;
+  const double per_area = LaminarConductancePerArea(m, cyl);
+  std::vector<EffectParameter> conductances;
+  for (const char* key : {"piston_leak_conductance", "P.atmosphere_leak_conductance", "N.atmosphere_leak_conductance"}) {
+    conductances.push_back(KeyParameter(n, key, std::max(Parameter(m, n, key, 0), 1e-9 * per_area), 1e-12 * per_area,
+                                        1e-5 * per_area, 1e-9 * per_area, true));
+  }
+  return conductances;
+}
+
 // the largest force (N or N m) the cylinder's chambers can apply: a scale for friction
 double MaxForce(const mjModel* m, const CylinderSeries& c) {
   const double area = Parameter(m, c.info.name, "P.area", 1e-4);
@@ -439,11 +463,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
   // leakage: orifices across the piston and from each chamber to the atmosphere (the turbulent form;
   // a real leak may be laminar, or anything between)
   per_cylinder("leakage", "orifice leaks across the piston and to the atmosphere", [&](const CylinderSeries& cyl, Candidate* c) {
-    const std::string& n = cyl.info.name;
-    // from 1e-9 m^2 (a leak far below any valve's, about 0.03 mm across) on a log scale
-    for (const char* key : {"piston_leak_area", "P.atmosphere_leak_area", "N.atmosphere_leak_area"}) {
-      c->parameters.push_back(KeyParameter(n, key, std::max(Parameter(m, n, key, 0), 1e-9), 1e-12, 1e-5, 1e-9, true));
-    }
+    c->parameters = OrificeLeakAreas(m, cyl);
   });
   // leakage, second form, a refinement (candidates.h): laminar leaks along the same paths, the mass
   // flow G dp proportional to the pressure difference (the plugin's *_leak_conductance, the
@@ -453,12 +473,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
   // (LaminarConductancePerArea)
   per_cylinder("leakage", "laminar leaks across the piston and to the atmosphere (flow proportional to the pressure difference)",
                [&](const CylinderSeries& cyl, Candidate* c) {
-    const std::string& n = cyl.info.name;
-    const double per_area = LaminarConductancePerArea(m, cyl);
-    for (const char* key : {"piston_leak_conductance", "P.atmosphere_leak_conductance", "N.atmosphere_leak_conductance"}) {
-      c->parameters.push_back(KeyParameter(n, key, std::max(Parameter(m, n, key, 0), 1e-9 * per_area), 1e-12 * per_area,
-                                           1e-5 * per_area, 1e-9 * per_area, true));
-    }
+    c->parameters = LaminarLeakConductances(m, cyl);
   }, true);
   // leakage, third form, a refinement: both laws on each path, a laminar conductance and an orifice
   // side by side (the project's own form). A real leak lies between the two ends, and a seal may
@@ -470,17 +485,9 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
   // two fits of the same leak
   per_cylinder("leakage", "laminar and orifice leaks side by side, across the piston and to the atmosphere",
                [&](const CylinderSeries& cyl, Candidate* c) {
-    const std::string& n = cyl.info.name;
-    const double per_area = LaminarConductancePerArea(m, cyl);
-    for (const char* key : {"piston_leak_area", "P.atmosphere_leak_area", "N.atmosphere_leak_area"}) {
-      c->parameters.push_back(KeyParameter(n, key, std::max(Parameter(m, n, key, 0), 1e-9), 1e-12, 1e-5, 1e-9, true));
-      c->parameters.back().seed_fraction = 0.5;
-    }
-    for (const char* key : {"piston_leak_conductance", "P.atmosphere_leak_conductance", "N.atmosphere_leak_conductance"}) {
-      c->parameters.push_back(KeyParameter(n, key, std::max(Parameter(m, n, key, 0), 1e-9 * per_area), 1e-12 * per_area,
-                                           1e-5 * per_area, 1e-9 * per_area, true));
-      c->parameters.back().seed_fraction = 0.5;
-    }
+    c->parameters = OrificeLeakAreas(m, cyl);
+    for (EffectParameter& p : LaminarLeakConductances(m, cyl)) c->parameters.push_back(p);
+    for (EffectParameter& p : c->parameters) p.seed_fraction = 0.5;
   }, true);
   // heat_transfer: the gas temperature as a state (the energy equation of an open chamber with wall
   // heat, Richer and Hurmuzlu 2000; plugin/README.md, "heat_transfer") with one wall heat conductance
