@@ -715,6 +715,16 @@ void Phi1Times(const double A[2][2], const double v[2], double out[2]) {
   out[1] = (f1 * v[1] + divided * w1).real();
 }
 
+// the pressures a line and its chamber can reach over a substep from line0 and p (the chamber's
+// compressed pressure): between the lowest and the highest of them and of the open ports' and leaks' pressures
+Range LineRange(const ChamberModel& k, const PortOpenings& o, double line0, double p) {
+  Range r{std::min(line0, p), std::max(line0, p)};
+  if (o.supply > 0) r.hi = std::max(r.hi, k.p_supply);
+  if (o.exhaust > 0) r.lo = std::min(r.lo, k.p_exhaust);
+  if (k.atmosphere_leak > 0 || k.atmosphere_leak_area > 0) r.lo = std::min(r.lo, k.p_atm), r.hi = std::max(r.hi, k.p_atm);
+  return r;
+}
+
 LineSubstep LineExponentialEuler(const ChamberModel& k, const PortOpenings& o, double line0, double p0, double v0,
                                  double v1, double s) {
   const double k_line = k.gas_rt / k.line_volume;
@@ -726,14 +736,26 @@ LineSubstep LineExponentialEuler(const ChamberModel& k, const PortOpenings& o, d
   const double q = RestrictionFlow(k, line0, p_compressed);
   const double a = (RestrictionFlow(k, line0 + delta, p_compressed) - q) / delta;  // >= 0
   const double b = (RestrictionFlow(k, line0, p_compressed + delta) - q) / delta;  // <= 0
+  // the chamber's leaks to the atmosphere: laminar, G (p_atm - p), and through an orifice (paper 001
+  // eq. 2), its slope by the same difference as the valve's
   const double g = k.atmosphere_leak;
-  const double rate[2] = {k_line * (valve - q), c * (q - g * (p_compressed - k.p_atm))};
-  const double sJ[2][2] = {{s * k_line * (valve_slope - a), -s * k_line * b}, {s * c * a, s * c * (b - g)}};
+  double leak = g * (k.p_atm - p_compressed), leak_slope = -g;  // kg/s, kg/(s Pa)
+  if (k.atmosphere_leak_area > 0) {
+    const double orifice = MassFlow(k.leak_law, k.atmosphere_leak_area, k.p_atm, p_compressed);
+    leak += orifice;
+    leak_slope += (MassFlow(k.leak_law, k.atmosphere_leak_area, k.p_atm, p_compressed + delta) - orifice) / delta;
+  }
+  const double rate[2] = {k_line * (valve - q), c * (q + leak)};
+  const double sJ[2][2] = {{s * k_line * (valve_slope - a), -s * k_line * b}, {s * c * a, s * c * (b + leak_slope)}};
   double change[2];
   Phi1Times(sJ, rate, change);
+  // both kept between the lowest and the highest pressure the gas can come from: near a port's pressure the
+  // laws go as sqrt, and the slope taken at the substep's start carries the line past it (it once left a
+  // line oscillating short of the supply pressure, its chamber with it)
+  const Range range = LineRange(k, o, line0, p_compressed);
   LineSubstep out;
-  out.line = line0 + s * change[0];
-  out.p = p_compressed + s * change[1];
+  out.line = std::clamp(line0 + s * change[0], range.lo, range.hi);
+  out.p = std::clamp(p_compressed + s * change[1], range.lo, range.hi);
   out.supply = o.supply > 0 ? s * MassFlow(k.flow, o.supply, k.p_supply, out.line) : 0.0;
   return out;
 }
@@ -749,13 +771,15 @@ void LinePressureStep(const ChamberModel& k, const PortSchedule& ports, const Vo
     LineSubstep full = LineExponentialEuler(k, step.at_next, line, p, step.v_start, step.v_next, s);
     LineSubstep half = LineExponentialEuler(k, step.at_mid, line, p, step.v_start, step.v_mid, s / 2);
     LineSubstep half2 = LineExponentialEuler(k, step.at_next, half.line, half.p, step.v_mid, step.v_next, s / 2);
-    // Richardson extrapolation (linear: keeps p_L V_L + p V of an isothermal chamber at fixed volume)
-    next_line = 2 * half2.line - full.line, next_p = 2 * half2.p - full.p;
+    // Richardson extrapolation (linear: keeps p_L V_L + p V of an isothermal chamber at fixed volume), kept
+    // in the range the substep's gas can reach
+    const double p_end = p * std::pow(step.v_start / step.v_next, k.work_factor * k.polytropic_index);
+    Range range = LineRange(k, step.at_mid, line, p_end);
+    const Range at_next = LineRange(k, step.at_next, line, p_end);
+    range.lo = std::min({range.lo, at_next.lo, p}), range.hi = std::max({range.hi, at_next.hi, p});
+    next_line = std::clamp(2 * half2.line - full.line, range.lo, range.hi);
+    next_p = std::clamp(2 * half2.p - full.p, range.lo, range.hi);
     supplied_here = 2 * (half.supply + half2.supply) - full.supply;
-    if (!(next_line > 0 && next_p > 0)) {
-      next_line = half2.line, next_p = half2.p;
-      supplied_here = half.supply + half2.supply;
-    }
     return std::max(std::fabs(half2.line - full.line), std::fabs(half2.p - full.p));
   };
   StepDoubling(ports, volume, h, k.tolerance, attempt, [&] {

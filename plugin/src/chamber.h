@@ -164,11 +164,12 @@ GasState EnergyPressureStep(const ChamberModel& k, const PortSchedule& ports, co
 // (ISO 6358, paper 002 eq. 4, b = 0.433):
 //   dp_L/dt = (r T / V_L) (Q_valve(p_L) - Q_r(p_L, p))
 //   dp/dt   = n r T (Q_r(p_L, p) + Q_leak(p)) / V - alpha n p (dV/dt) / V     (paper 000 eq. 4a)
-// Each substep is backward Euler (the chamber in y = p V^(alpha n), so the compression is exact): for
-// a chamber pressure p1 the line's equation has one root p_L1(p1), and the chamber's residual in p1
-// with p_L1(p1) inserted is increasing, so both are bracketed and solved by Illinois regula falsi
-// (nested). Step doubling with Richardson extrapolation makes it second order and adapts the substep
-// to k.tolerance; the step splits at valve switching instants. (The project's own method.)
+// with Q_leak the chamber's leaks to the atmosphere (laminar and orifice); the leaks across the piston
+// are not in it (Cylinder::Step exchanges them around it). Each substep is exponential Rosenbrock-Euler
+// (the compression exact, p V^(alpha n); the flows linearised at the substep's start; phi1 of the 2 x 2
+// Jacobian), kept between the lowest and the highest pressure the gas can come from. Step doubling with Richardson extrapolation makes it second
+// order and adapts the substep to k.tolerance; the step splits at valve switching instants. (The
+// project's own method.)
 // *supply_mass (if not null) gets the mass that entered the line through the supply port (kg).
 void LinePressureStep(const ChamberModel& k, const PortSchedule& ports, const VolumePath& volume, double line0,
                       double p0, double h, double* line1, double* p1, double* supply_mass);

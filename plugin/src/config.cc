@@ -552,12 +552,6 @@ std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const
     if (c.chamber[k].model != PressureModel::kPhysical) return fail(key, "a line needs the physical pressure model");
     if (c.thermal_model == ThermalModel::kEnergy) return fail(key, "not combined with thermal_model=energy in this version");
     if (c.step == ChamberStep::kExplicit) return fail(key, "a line has its own implicit step: use step=linearized or step=exact");
-    if (c.piston_leak_conductance > 0 || c.piston_leak_area > 0) {
-      return fail(key, "not combined with piston_leak_conductance or piston_leak_area in this version (the line's step holds one chamber)");
-    }
-    if (c.chamber[k].atmosphere_leak_area > 0) {
-      return fail(key, "not combined with atmosphere_leak_area in this version (the laminar atmosphere_leak_conductance is)");
-    }
   }
   for (int k = 0; k < 2; ++k) {
     // the identified model of paper 000 maps the command voltage itself (its valve's dynamics are in its fit)

@@ -571,34 +571,38 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
   if (physical[0] || physical[1]) {
     PortSchedule ports[2] = {{config_, 0, valves}, {config_, 1, valves}};
     VolumePath volume[2] = {Volume(0, motion.x, x_rate), Volume(1, motion.x, x_rate)};
-    // the linearized step: both chambers together when the leak across the piston couples them
     bool done[2] = {false, false};
-    // a chamber behind a line (line_volume > 0; the parser refuses step=explicit and the piston leak with
-    // it): line and chamber together by their own implicit step
     bool line[2] = {false, false};
+    for (int k = 0; k < 2; ++k) line[k] = physical[k] && config_.chamber[k].line_volume > 0;
+    // the leaks across the piston, as exchanges at fixed volumes in two halves around the chambers' steps
+    // (Strang splitting), where those steps do not hold them: the orifice (piston_leak_area) always, the
+    // laminar leak (piston_leak_conductance) when a chamber is behind a line (its step holds one chamber);
+    // the chambers step from pin, what the first halves leave
+    const bool both_implicit = physical[0] && physical[1] && config_.step != ChamberStep::kExplicit;
+    const double orifice = both_implicit ? config_.piston_leak_area : 0;
+    const bool split_laminar = both_implicit && leak > 0 && (line[0] || line[1]);
+    double pin[2] = {p0[0], p0[1]};
+    const double v_start_both[2] = {volume[0].At(0), volume[1].At(0)}, v_end_both[2] = {volume[0].At(h), volume[1].At(h)};
+    if (orifice > 0) PistonOrificeExchange(models, v_start_both, orifice, h / 2, pin);
+    const double p_before_laminar[2] = {pin[0], pin[1]};  // where the supply's accounting starts
+    if (split_laminar) PistonLeakExchange(models, v_start_both, leak, h / 2, pin);
+    // a chamber behind a line (line_volume > 0; the parser refuses step=explicit with it): line and
+    // chamber together by their own implicit step
     double line_drawn = 0;
     for (int k = 0; k < 2; ++k) {
-      if (!physical[k] || config_.chamber[k].line_volume <= 0) continue;
+      if (!line[k]) continue;
       int id = extra_state_id_[kLineP + k];
       double line0 = Act(m, d, id) + config_.p_atm, line1 = line0, drawn = 0;
-      LinePressureStep(models[k], ports[k], volume[k], line0, p0[k], h, &line1, &p1[k], supply_drawn ? &drawn : nullptr);
+      LinePressureStep(models[k], ports[k], volume[k], line0, pin[k], h, &line1, &p1[k], supply_drawn ? &drawn : nullptr);
       ActDot(m, d, id) = (line1 - line0) / h;
       line_drawn += drawn;
-      line[k] = done[k] = true;
-    }
-    // the orifice leak across the piston (piston_leak_area): its exchange at fixed volumes in two halves around
-    // the chambers' steps (Strang splitting); the chambers step from pin, what the first half leaves
-    const double orifice = physical[0] && physical[1] && config_.step != ChamberStep::kExplicit ? config_.piston_leak_area : 0;
-    double pin[2] = {p0[0], p0[1]};
-    if (orifice > 0) {
-      const double v_start_both[2] = {volume[0].At(0), volume[1].At(0)};
-      PistonOrificeExchange(models, v_start_both, orifice, h / 2, pin);
+      done[k] = true;
     }
     if (config_.step == ChamberStep::kLinearized) {
       // both chambers in one call where both take it (coupled by the leak across the piston, or
       // each on its own), else the one that does
       const PortSchedule* schedules[2] = {&ports[0], &ports[1]};
-      bool takes[2] = {physical[0] && !line[0], physical[1] && !line[1]};
+      const bool takes[2] = {physical[0] && !line[0], physical[1] && !line[1]};
       if (takes[0] && takes[1]) {
         LinearizedPressureStep(2, models, schedules, volume, leak, pin, h, p1, done);
       } else {
@@ -623,20 +627,18 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
     } else if (!done[0] || !done[1]) {
       // the adaptive implicit step (step=exact, or where the linearized step asks for it), chamber by chamber;
       // the leak across the piston, solved exactly, in two halves around it (Strang splitting)
-      bool coupled = leak > 0 && physical[0] && physical[1];
+      // (taken here unless split_laminar took it around every chamber's step)
+      bool coupled = leak > 0 && physical[0] && physical[1] && !split_laminar;
       double p[2] = {pin[0], pin[1]};
-      double v_start[2] = {volume[0].At(0), volume[1].At(0)}, v_end[2] = {volume[0].At(h), volume[1].At(h)};
-      if (coupled) PistonLeakExchange(models, v_start, leak, h / 2, p);
+      if (coupled) PistonLeakExchange(models, v_start_both, leak, h / 2, p);
       for (int k = 0; k < 2; ++k) {
         if (physical[k] && !done[k]) p1[k] = PhysicalPressureStep(models[k], ports[k], volume[k], p[k], h);
       }
-      if (coupled) PistonLeakExchange(models, v_end, leak, h / 2, p1);
+      if (coupled) PistonLeakExchange(models, v_end_both, leak, h / 2, p1);
     }
+    if (split_laminar) PistonLeakExchange(models, v_end_both, leak, h / 2, p1);
     const double p1_chambers[2] = {p1[0], p1[1]};  // before the orifice's second half
-    if (orifice > 0) {
-      const double v_end_both[2] = {volume[0].At(h), volume[1].At(h)};
-      PistonOrificeExchange(models, v_end_both, orifice, h / 2, p1);
-    }
+    if (orifice > 0) PistonOrificeExchange(models, v_end_both, orifice, h / 2, p1);
     for (int k = 0; k < 2; ++k) {
       if (physical[k] && config_.step != ChamberStep::kExplicit) rate[k] = (p1[k] - p0[k]) / h;
     }
@@ -652,8 +654,8 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
           double opening = ports[k].At(0).supply;
           *supply_drawn += opening > 0 ? h * MassFlow(models[k].flow, opening, models[k].p_supply, p0[k]) : 0.0;
         } else {
-          *supply_drawn += SupplyMassOverStep(models[k], ports[k].At(0), ports[k].At(h), volume[k], pin[k],
-                                              p1_chambers[k], coupled_leak, pin[1 - k], p1_chambers[1 - k], h);
+          *supply_drawn += SupplyMassOverStep(models[k], ports[k].At(0), ports[k].At(h), volume[k], p_before_laminar[k],
+                                              p1_chambers[k], coupled_leak, p_before_laminar[1 - k], p1_chambers[1 - k], h);
         }
       }
     }
