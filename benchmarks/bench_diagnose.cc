@@ -29,6 +29,8 @@
 //                  valves also with a 3 ms transport delay (line_delay)     richer: with the delay
 //   sensor_bias    offset and gain of the logged p_P, or of x; an    -> offset and gain of one signal
 //                  offset alone of p_N
+// and three pairs of effects: the payload with the p_P sensor bias, LuGre friction with the laminar
+// leak, the tube with the laminar leak.
 // Prints one line per case, the confusion matrix (true effect vs verdict) and the median held-out
 // shrink of the cases with an effect. Usage: bench_diagnose [--quick] [--rig A|B|C] [--case TEXT] [--duration S]
 // [--rate HZ] [--noise K] [--reference multisine|steps|open-loop] [--no-supply-sensor] [--verbose] (--case: only the
@@ -339,6 +341,14 @@ std::vector<Truth> Truths(const Rig& rig, const std::string& valve) {
   if (HasKey("friction_model")) {
     const Truth friction = first("LuGre friction"), leak = first("laminar leak");
     Truth both{friction.label + " and a " + leak.label, {"friction", "leakage"}, friction.edits};
+    both.edits.insert(both.edits.end(), leak.edits.begin(), leak.edits.end());
+    t.push_back(both);
+  }
+  // a tube and a laminar leak across the piston together: two effects in one cylinder's chambers
+  // (the plugin steps a line with the leaks across the piston since b0e2650)
+  if (HasKey("line_volume")) {
+    const Truth tube = first("tube of half"), leak = first("laminar leak");
+    Truth both{tube.label + " and a " + leak.label, {"line_dynamics", "leakage"}, tube.edits};
     both.edits.insert(both.edits.end(), leak.edits.begin(), leak.edits.end());
     t.push_back(both);
   }
