@@ -21,6 +21,7 @@ namespace {
 using ::testing::HasSubstr;
 using testing::LoadModelFromString;
 using testing::MujocoTest;
+using testing::Rk4Step;
 using testing::SameBits;
 using testing::State;
 
@@ -591,15 +592,7 @@ TEST(Leakage, WithALineFollowsAnIndependentFineStepReference) {
     const int per_ms = 1000;
     reference.push_back({p[0], p[1], p[2]});
     for (int i = 1; i <= static_cast<int>(std::lround(until / h)); ++i) {
-      double k1[3], k2[3], k3[3], k4[3], q[3];
-      rates(p, k1);
-      for (int j = 0; j < 3; ++j) q[j] = p[j] + h / 2 * k1[j];
-      rates(q, k2);
-      for (int j = 0; j < 3; ++j) q[j] = p[j] + h / 2 * k2[j];
-      rates(q, k3);
-      for (int j = 0; j < 3; ++j) q[j] = p[j] + h * k3[j];
-      rates(q, k4);
-      for (int j = 0; j < 3; ++j) p[j] += h / 6 * (k1[j] + 2 * k2[j] + 2 * k3[j] + k4[j]);
+      Rk4Step<3>(rates, h, p);
       if (i % per_ms == 0) reference.push_back({p[0], p[1], p[2]});
     }
   }

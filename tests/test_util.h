@@ -211,6 +211,21 @@ inline std::string IdentifiedRig() {
       c1=5 c2=1.5 c3=0.2 c4=0 c5=0 c6=0 c7=40 c8=0.1 c9=0.05"/></custom></mujoco>)";
 }
 
+// one step of length h of the classical fourth-order Runge-Kutta method (Kutta, 1901) for
+// x' = rate(x) with N states, x updated in place: the tests' independent fine-step references
+template <int N, class Rate>
+void Rk4Step(const Rate& rate, double h, double x[N]) {
+  double k1[N], k2[N], k3[N], k4[N], y[N];
+  rate(x, k1);
+  for (int j = 0; j < N; ++j) y[j] = x[j] + h / 2 * k1[j];
+  rate(y, k2);
+  for (int j = 0; j < N; ++j) y[j] = x[j] + h / 2 * k2[j];
+  rate(y, k3);
+  for (int j = 0; j < N; ++j) y[j] = x[j] + h * k3[j];
+  rate(y, k4);
+  for (int j = 0; j < N; ++j) x[j] += h / 6 * (k1[j] + 2 * k2[j] + 2 * k3[j] + k4[j]);
+}
+
 }  // namespace pneumatic::testing
 
 #endif  // PNEUMATIC_TESTS_TEST_UTIL_H_

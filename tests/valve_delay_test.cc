@@ -17,6 +17,7 @@ namespace {
 
 using ::testing::HasSubstr;
 using testing::LoadModelFromString;
+using testing::Rk4Step;
 using testing::SameBits;
 using testing::State;
 
@@ -105,17 +106,7 @@ double IntegratedDelayAndLag(double u, double dead_time, double lag, double gain
   double x[3] = {0, 0, 0};
   const int n = static_cast<int>(std::ceil(t / T * 20000));
   const double h = t / n;
-  for (int i = 0; i < n; ++i) {
-    double k1[3], k2[3], k3[3], k4[3], tmp[3];
-    rate(x, k1);
-    for (int j = 0; j < 3; ++j) tmp[j] = x[j] + h / 2 * k1[j];
-    rate(tmp, k2);
-    for (int j = 0; j < 3; ++j) tmp[j] = x[j] + h / 2 * k2[j];
-    rate(tmp, k3);
-    for (int j = 0; j < 3; ++j) tmp[j] = x[j] + h * k3[j];
-    rate(tmp, k4);
-    for (int j = 0; j < 3; ++j) x[j] += h / 6 * (k1[j] + 2 * k2[j] + 2 * k3[j] + k4[j]);
-  }
+  for (int i = 0; i < n; ++i) Rk4Step<3>(rate, h, x);
   return lag > 0 ? x[2] : gain * (x[0] - T / 3 * x[1]);
 }
 

@@ -675,6 +675,7 @@ namespace {
 // square roots have unbounded slopes where the pressures meet: RestrictionFlow is laminar there).
 struct LineSubstep {
   double line = 0, p = 0, supply = 0;
+  double p_compressed = 0;  // the chamber's pressure compressed over the substep, before the flows
 };
 // The restriction's mass flow from the line (p_line) into the chamber (p), signed: ISO 6358 (paper 002
 // eq. 4) down to a pressure ratio of 0.999, linear in the pressure difference above it, as
@@ -754,6 +755,7 @@ LineSubstep LineExponentialEuler(const ChamberModel& k, const PortOpenings& o, d
   // line oscillating short of the supply pressure, its chamber with it)
   const Range range = LineRange(k, o, line0, p_compressed);
   LineSubstep out;
+  out.p_compressed = p_compressed;
   out.line = std::clamp(line0 + s * change[0], range.lo, range.hi);
   out.p = std::clamp(p_compressed + s * change[1], range.lo, range.hi);
   out.supply = o.supply > 0 ? s * MassFlow(k.flow, o.supply, k.p_supply, out.line) : 0.0;
@@ -773,7 +775,7 @@ void LinePressureStep(const ChamberModel& k, const PortSchedule& ports, const Vo
     LineSubstep half2 = LineExponentialEuler(k, step.at_next, half.line, half.p, step.v_mid, step.v_next, s / 2);
     // Richardson extrapolation (linear: keeps p_L V_L + p V of an isothermal chamber at fixed volume), kept
     // in the range the substep's gas can reach
-    const double p_end = p * std::pow(step.v_start / step.v_next, k.work_factor * k.polytropic_index);
+    const double p_end = full.p_compressed;
     Range range = LineRange(k, step.at_mid, line, p_end);
     const Range at_next = LineRange(k, step.at_next, line, p_end);
     range.lo = std::min({range.lo, at_next.lo, p}), range.hi = std::max({range.hi, at_next.hi, p});
