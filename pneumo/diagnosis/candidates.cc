@@ -300,6 +300,17 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
     // model's (or 2 ms), on a linear scale, so that the scan moves the dead time alone
     const double dead_time = Parameter(m, n, "spool_dead_time", 0);
     c->parameters.push_back(KeyParameter(n, "spool_dead_time", dead_time > 0 ? dead_time : 0.002, 1e-4, 0.05, 2e-3, true));
+    // the delay line's states estimated over the log's history (SignalModel::history_estimate): from
+    // a window's warm-up alone they would start each window off by what the line's error keeps after
+    // it, exp(-2 t / T) (valves.h), 0.7 % after 20 ms for T = 8 ms, less for a shorter dead time,
+    // which the fit then prefers: on a 500 Hz rig C log of an 8 ms dead time and no lag
+    // (bench_diagnose) it stopped at 6.5 ms and a 1.1 ms lag, held-out gap 0.0216 (with a 60 ms
+    // warm-up: 8.0 ms and no lag, 0.0176)
+    const auto set_dead_time = c->parameters.back().apply;
+    c->parameters.back().apply = [set_dead_time](mjModel* model, SignalModel* signals, double value) {
+      signals->history_estimate = true;
+      return set_dead_time(model, signals, value);
+    };
     if (per_chamber) {
       c->parameters.push_back(KeyParameter(n, "spool_time_constant", tau > 0 ? tau : 0.002, 1e-4, 0.1, 2e-3));
     } else {

@@ -21,7 +21,7 @@
 // the benchmark's logs with sensor noise it does not bind (README); on a noise-free log of an exact integration of the same
 // equations (rig B against tests/reference, RK4 at 1 us) a payload 0.2 % lighter had otherwise
 // "explained" 22 % of a 0.0005 gap that the model's 0.1 ms Euler step leaves. No such candidate: `none`. A richer form of an effect
-// (Candidate::refinement: supply_drop's tank, valve_delay's dead time and exact latency,
+// (Candidate::refinement: supply_drop's tank, valve_delay's dead time (its delay line estimated over the history) and exact latency,
 // line_dynamics' transport delay, leakage's laminar leaks and both laws side by side,
 // heat_transfer's gas temperatures estimated over the history) is fitted only in a round that the
 // effect's simpler form leads by dIC or is the runner-up (the best other effect whose simpler form
