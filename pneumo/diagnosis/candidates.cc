@@ -51,6 +51,15 @@ EffectParameter KeyParameter(const std::string& cylinder, const std::string& key
   return p;
 }
 
+// p, whose value also has the prediction estimate the model's unmeasured states over the log's
+// history (SignalModel::history_estimate) instead of from each window's warm-up alone
+void EstimatedOverTheHistory(EffectParameter* p) {
+  p->apply = [set = p->apply](mjModel* model, SignalModel* signals, double value) {
+    signals->history_estimate = true;
+    return set(model, signals, value);
+  };
+}
+
 // The laminar leak conductance (kg/(s Pa)) that passes an orifice's flow per m^2 of its area at a
 // choked flow from the supply to the exhaust: G = C1 p_s / (sqrt(T) (p_s - p_e)), with paper 001 eq.
 // 2's C1 = sqrt(gamma/r (2/(gamma+1))^((gamma+1)/(gamma-1))) for the cylinder's gas: the scale that
@@ -306,11 +315,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
     // which the fit then prefers: on a 500 Hz rig C log of an 8 ms dead time and no lag
     // (bench_diagnose) it stopped at 6.5 ms and a 1.1 ms lag, held-out gap 0.0216 (with a 60 ms
     // warm-up: 8.0 ms and no lag, 0.0176)
-    const auto set_dead_time = c->parameters.back().apply;
-    c->parameters.back().apply = [set_dead_time](mjModel* model, SignalModel* signals, double value) {
-      signals->history_estimate = true;
-      return set_dead_time(model, signals, value);
-    };
+    EstimatedOverTheHistory(&c->parameters.back());
     if (per_chamber) {
       c->parameters.push_back(KeyParameter(n, "spool_time_constant", tau > 0 ? tau : 0.002, 1e-4, 0.1, 2e-3));
     } else {
@@ -526,11 +531,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
   per_cylinder("heat_transfer", "gas temperature as a state, one wall heat conductance, the temperatures estimated over the log's history",
                [&](const CylinderSeries& cyl, Candidate* c) {
     energy_equation(cyl, c);
-    const auto set_conductance = c->parameters.back().apply;
-    c->parameters.back().apply = [set_conductance](mjModel* model, SignalModel* signals, double value) {
-      signals->history_estimate = true;
-      return set_conductance(model, signals, value);
-    };
+    EstimatedOverTheHistory(&c->parameters.back());
   }, true);
   // supply_drop: a supply pressure below the nominal one
   per_cylinder("supply_drop", "a lower supply pressure", [&](const CylinderSeries& cyl, Candidate* c) {
