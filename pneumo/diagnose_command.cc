@@ -222,6 +222,7 @@ nlohmann::json DiagnosisJson(const dg::Diagnosis& d) {
                                   {"score", Number(c.delta_ic)},
                                   {"explains", c.explains},
                                   {"refinement", c.refinement},
+                                  {"with_found_effects", c.with_found_effects},
                                   {"evaluations", c.evaluations},
                                   {"seconds", c.seconds}});
     }
