@@ -62,14 +62,17 @@ log::Log RigLog(const std::string& rig, std::uint64_t seed, double duration, con
   ModelPtr m = LoadEditedModel(rig, edits, &error);
   EXPECT_TRUE(m) << error;
   log::Log ref;
-  ref.columns = {{"cyl", "ref"}};
-  ref.values.assign(1, {});
-  const double phase = 0.7 * static_cast<double>(seed);
-  for (double t = 0; t <= duration + 1e-9; t += 0.01) {
-    ref.time.push_back(t);
-    ref.values[0].push_back(0.02 * std::sin(2 * M_PI * 0.6 * t + phase) * std::min(t, 1.0) + 0.008 * std::sin(2 * M_PI * 1.3 * t));
+  if (reference) {
+    ref = *reference;
+  } else {
+    ref.columns = {{"cyl", "ref"}};
+    ref.values.assign(1, {});
+    const double phase = 0.7 * static_cast<double>(seed);
+    for (double t = 0; t <= duration + 1e-9; t += 0.01) {
+      ref.time.push_back(t);
+      ref.values[0].push_back(0.02 * std::sin(2 * M_PI * 0.6 * t + phase) * std::min(t, 1.0) + 0.008 * std::sin(2 * M_PI * 1.3 * t));
+    }
   }
-  if (reference) ref = *reference;
   ClosedLoopOptions o;
   o.duration = duration;
   o.control_rate = control_rate;

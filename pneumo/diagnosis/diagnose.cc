@@ -10,6 +10,17 @@
 namespace pneumatic::diagnosis {
 namespace {
 
+// c's parameters as a fit found them, from the fit's variable `first` on (a joint fit puts the found
+// effects' parameters before c's)
+std::vector<ParameterResult> FittedParameters(const Candidate& c, const CandidateFit& fit, size_t first = 0) {
+  std::vector<ParameterResult> out;
+  for (size_t i = 0; i < c.parameters.size(); ++i) {
+    out.push_back({c.parameters[i].name, c.parameters[i].unit, fit.values[first + i], fit.standard_errors[first + i],
+                   fit.poorly_determined[first + i]});
+  }
+  return out;
+}
+
 double Seconds(std::chrono::steady_clock::time_point since) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
 }
@@ -423,10 +434,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
       } else {
         result.status = "fitted";
         result.train_gap = fit.train_gap_after;
-        for (size_t i = 0; i < c.parameters.size(); ++i) {
-          result.parameters.push_back({c.parameters[i].name, c.parameters[i].unit, fit.values[i], fit.standard_errors[i],
-                                       fit.poorly_determined[i]});
-        }
+        result.parameters = FittedParameters(c, fit);
         Evaluated ev = EvaluateScenario(model_path, WithCandidate(scenario, c, fit.values), *held, held_gap);
         if (!ev.error.empty()) {
           result.status = "failed: on the held-out log: " + ev.error;
@@ -525,10 +533,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
         } else {
           result.status = "fitted";
           result.train_gap = fit.train_gap_after;
-          for (size_t k = 0; k < c.parameters.size(); ++k) {
-            result.parameters.push_back({c.parameters[k].name, c.parameters[k].unit, fit.values[first + k],
-                                         fit.standard_errors[first + k], fit.poorly_determined[first + k]});
-          }
+          result.parameters = FittedParameters(c, fit, first);
           Evaluated ev = EvaluateScenario(model_path, WithCandidate(Scenario{}, joint, fit.values), *held, held_gap);
           if (!ev.error.empty()) {
             result.status = "failed: on the held-out log: " + ev.error;
