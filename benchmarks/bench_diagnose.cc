@@ -146,21 +146,7 @@ pneumatic::log::Log StepReference(const Rig& rig, std::uint64_t seed, double dur
 
 pneumatic::log::Log Reference(const Rig& rig, std::uint64_t seed, double duration, ReferenceShape shape) {
   if (shape == ReferenceShape::kSteps) return StepReference(rig, seed, duration);
-  std::mt19937_64 random(seed);
-  std::uniform_real_distribution<double> f(0.2, 1.2), phase(0, 2 * M_PI);
-  double fs[4], ph[4];
-  for (int i = 0; i < 4; ++i) fs[i] = f(random), ph[i] = phase(random);
-  pneumatic::log::Log ref;
-  ref.columns = {{"cyl", "ref"}};
-  ref.values.assign(1, {});
-  for (double t = 0; t <= duration + 1e-9; t += 0.01) {
-    double s = 0;
-    for (int i = 0; i < 4; ++i) s += std::sin(2 * M_PI * fs[i] * t + ph[i]) / 4;
-    const double fade = t < 1 ? std::sin(M_PI * t / 2) * std::sin(M_PI * t / 2) : 1;
-    ref.time.push_back(t);
-    ref.values[0].push_back(0.6 * 0.5 * rig.stroke * fade * s * 2);
-  }
-  return ref;
+  return pneumatic::reference::MultiSinePositionReference(seed, duration, rig.stroke);
 }
 
 std::optional<pneumatic::log::Log> Simulate(const Rig& rig, const Truth& truth, std::uint64_t seed, double duration,

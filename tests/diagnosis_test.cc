@@ -33,26 +33,6 @@ std::string Number(double value) {
   return text;
 }
 
-// bench_diagnose's reference (its Reference()): a multi-sine of 4 components at 0.2-1.2 Hz with random
-// phases, at 60 % of the half stroke, faded in over the first second
-log::Log MultiSineReference(std::uint64_t seed, double duration, double stroke) {
-  std::mt19937_64 random(seed);
-  std::uniform_real_distribution<double> frequency(0.2, 1.2), phase(0, 2 * M_PI);
-  double f[4], ph[4];
-  for (int i = 0; i < 4; ++i) f[i] = frequency(random), ph[i] = phase(random);
-  log::Log ref;
-  ref.columns = {{"cyl", "ref"}};
-  ref.values.assign(1, {});
-  for (double t = 0; t <= duration + 1e-9; t += 0.01) {
-    double s = 0;
-    for (int i = 0; i < 4; ++i) s += std::sin(2 * M_PI * f[i] * t + ph[i]) / 4;
-    const double fade = t < 1 ? std::sin(M_PI * t / 2) * std::sin(M_PI * t / 2) : 1;
-    ref.time.push_back(t);
-    ref.values[0].push_back(0.6 * 0.5 * stroke * fade * s * 2);
-  }
-  return ref;
-}
-
 // a closed-loop log of a rig (with `edits` in the rig: its truth): PID at control_rate on a two-sine
 // reference (or on `reference`), 500 Pa / 0.05 mm sensor noise (none: sensor_noise false), the valves
 // getting each command command_delay_ticks late
@@ -1179,7 +1159,8 @@ TEST(DiagnosisEndToEnd, FindsALeakTheTubesTookUpByFittingThemTogether) {
       {"cyl", {"LP", "LN"}, {}, {}, {{"line_volume", "2.5e-6"}, {"line_conductance", "8.7e-9"}}},
       {"cyl", {}, {}, {}, {{"piston_leak_conductance", "2e-10"}, {"P.atmosphere_leak_conductance", "5e-11"}}}};
   const double stroke = 0.1;  // rig C's, m
-  const log::Log train_reference = MultiSineReference(1, 12.0, stroke), held_reference = MultiSineReference(2, 12.0, stroke);
+  const log::Log train_reference = reference::MultiSinePositionReference(1, 12.0, stroke),
+                  held_reference = reference::MultiSinePositionReference(2, 12.0, stroke);
   const log::Log train = RigLog(kRigC, 1, 12.0, truth, 500, 0, true, &train_reference);
   const log::Log held = RigLog(kRigC, 2, 12.0, truth, 500, 0, true, &held_reference);
   DiagnoseOptions o;

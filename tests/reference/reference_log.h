@@ -3,6 +3,9 @@
 #ifndef PNEUMATIC_TESTS_REFERENCE_LOG_H_
 #define PNEUMATIC_TESTS_REFERENCE_LOG_H_
 
+#include <cmath>
+#include <cstdint>
+#include <random>
 #include <string>
 #include <utility>
 #include <vector>
@@ -47,6 +50,27 @@ inline log::Log ToLog(Rig rig, const std::vector<Sample>& samples) {
     for (size_t i = 0; i < row.size(); ++i) out.values[i].push_back(row[i]);
   }
   return out;
+}
+
+// a position reference for cylinder "cyl" (log signal "ref", every 10 ms): a multi-sine of 4 components
+// at 0.2-1.2 Hz with random phases (drawn from `seed`), at 60 % of the half stroke, faded in over the
+// first second; what bench_diagnose's closed-loop logs follow, and the diagnosis tests that match them
+inline log::Log MultiSinePositionReference(std::uint64_t seed, double duration, double stroke) {
+  std::mt19937_64 random(seed);
+  std::uniform_real_distribution<double> frequency(0.2, 1.2), phase(0, 2 * M_PI);
+  double f[4], ph[4];
+  for (int i = 0; i < 4; ++i) f[i] = frequency(random), ph[i] = phase(random);
+  log::Log ref;
+  ref.columns = {{"cyl", "ref"}};
+  ref.values.assign(1, {});
+  for (double t = 0; t <= duration + 1e-9; t += 0.01) {
+    double s = 0;
+    for (int i = 0; i < 4; ++i) s += std::sin(2 * M_PI * f[i] * t + ph[i]) / 4;
+    const double fade = t < 1 ? std::sin(M_PI * t / 2) * std::sin(M_PI * t / 2) : 1;
+    ref.time.push_back(t);
+    ref.values[0].push_back(0.6 * 0.5 * stroke * fade * s * 2);
+  }
+  return ref;
 }
 
 }  // namespace pneumatic::reference
