@@ -98,6 +98,9 @@ LEAK = 5e-8               # m^2, rigs.md rig C (L_c = L_r)
 SMOOTH = 1e-6             # m^2, rigs.md rig C (area_smoothing)
 C_GAMMA = 0.1             # V, paper 000
 TIMESTEP = 0.001          # s, the project's choice (docstring)
+# the default view of renders and frames (pneumo render, rollout --frames): three-quarters from the front,
+# where the cylinders of the arms and legs and their pressure colours show, with the stand behind the pelvis
+VIEW = '  <visual><global azimuth="135" elevation="-15"/></visual>'
 STROKE_USE = 0.9          # fraction of a linear cylinder's stroke used by the joint range
 VANE_MARGIN = math.radians(5)   # rad, each end of a vane's stroke beyond the joint range
 SEAL_DAMPING = 300.0      # N s/m, linear cylinder seal friction as viscous damping (project's choice)
@@ -540,6 +543,7 @@ def write_pneumatic(rows, cyls, mass, fit, model):
     lines.append('  <size nuser_actuator="128"/>')
     lines.append("  <!-- 1 ms, Euler: README \"Accuracy\" (rig C: 0.013 % pressure error along a given motion at 1 ms) -->")
     lines.append('  <option timestep="%s" integrator="Euler"/>' % num(TIMESTEP))
+    lines.append(VIEW)
     lines.append("  <default>")
     lines.append('    <joint type="hinge" limited="true"/>')
     lines.append("    <!-- no contacts: the robot hangs on its stand and self-collisions are off -->")
@@ -581,6 +585,7 @@ def write_motors(rows, cyls, mass):
     lines = [HEADER.format(what=what, mass=mass).rstrip("\n")]
     lines.append('<mujoco model="humanoid_motors">')
     lines.append('  <option timestep="%s" integrator="Euler"/>' % num(TIMESTEP))
+    lines.append(VIEW)
     lines.append("  <default>")
     lines.append('    <joint type="hinge" limited="true"/>')
     lines.append('    <geom contype="0" conaffinity="0"/>')
