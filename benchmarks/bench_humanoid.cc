@@ -17,7 +17,7 @@
 //    joints; their ctrlrange lifted so that no force is clipped).
 // Every row is checked against the recorded poses in an untimed pass and prints its largest deviation:
 // 0 where the forces are the same numbers (the same motion bit for bit, the same constraints); on tendons,
-// their round-off grown over 7.5 s of open-loop replay (about 1e-4 rad). Each row runs about 1 s of wall
+// their round-off grown over 7.5 s of open-loop replay (about 2e-5 rad). Each row runs about 1 s of wall
 // time (whole replays) after a 0.2 s warm-up, five runs alternating the rows, the median reported; the
 // ratio is to the twin replaying the same model's motion. The real-time factor is simulated time over
 // wall time.
