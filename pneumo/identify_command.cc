@@ -13,6 +13,7 @@
 
 #include "identification/chamber_series.h"
 #include "identification/drift.h"
+#include "identification/output_error_fit.h"
 #include "identification/parametric_fit.h"
 #include "identification/physical_fit.h"
 #include "log_csv.h"
@@ -105,9 +106,49 @@ json DriftJson(const id::DriftCurve& curve) {
           {"sequences", curve.sequences}};
 }
 
-// the parametric model per chamber: fit on the training log, scored on the held-out one
-std::string FitParametric(const mjModel* m, const log::Log& train, const log::Log* heldout, int threads,
-                          std::vector<id::ParametricFit>* fits, json* report) {
+// each one-step fit replaced by its output-error refinement (identification/output_error_fit.h); the
+// chamber's JSON keeps the one-step c and says what the refinement did. Standard errors are the
+// one-step fit's covariance, which does not hold at the refined c: they become null
+std::string RefineOutputError(const std::vector<id::ChamberSeries>& series, double horizon_s, int threads,
+                              std::vector<id::ParametricFit>* fits, json* chambers) {
+  char line[120];
+  std::snprintf(line, sizeof(line), "refining each chamber's fit on its own predictions over %g s sequences (output error)",
+                horizon_s);
+  Say(line);
+  std::vector<id::ParametricModel> starts;
+  for (const id::ParametricFit& fit : *fits) starts.push_back(fit.model);
+  id::OutputErrorOptions options;
+  options.horizon_s = horizon_s;
+  const std::vector<id::OutputErrorFit> refined = id::RefineOutputErrors(series, starts, options, threads);
+  for (size_t i = 0; i < refined.size(); ++i) {
+    const id::OutputErrorFit& r = refined[i];
+    if (!r.error.empty()) return r.name + ": output-error refinement: " + r.error;
+    id::ParametricFit& fit = (*fits)[i];
+    const std::array<double, 9> one_step = fit.model.c;
+    fit.model = r.model;
+    const id::OneStepScore score = id::ScoreOneStep(series[i], fit.model);
+    fit.rms_residual = score.rms_residual;
+    fit.one_step_fit_pct = score.fit_pct;
+    fit.standard_error.fill(std::nan(""));
+    for (std::string& w : fit.warnings) w = "one-step fit: " + w;
+    if (!r.converged) fit.warnings.push_back("output-error refinement: not converged in " + std::to_string(r.iterations) + " iterations");
+    json entry = ChamberJson(fit);
+    entry["output_error"] = {{"horizon_s", horizon_s},
+                             {"sequences", r.sequences},
+                             {"rms_before_pa", r.rms_before_pa},
+                             {"rms_after_pa", r.rms_after_pa},
+                             {"iterations", r.iterations},
+                             {"converged", r.converged},
+                             {"one_step_c", one_step}};
+    (*chambers)[fit.name] = entry;
+  }
+  return "";
+}
+
+// the parametric model per chamber: fit on the training log (refined on its own predictions if
+// refine_horizon_s > 0), scored on the held-out one
+std::string FitParametric(const mjModel* m, const log::Log& train, const log::Log* heldout, double refine_horizon_s,
+                          int threads, std::vector<id::ParametricFit>* fits, json* report) {
   std::vector<id::ChamberSeries> series;
   if (std::string e = id::ExtractChambers(m, train, &series); !e.empty()) return e;
   Say("fitting paper 000's model (eqs. 7-10) to " + std::to_string(series.size()) + " chambers, " +
@@ -116,8 +157,13 @@ std::string FitParametric(const mjModel* m, const log::Log& train, const log::Lo
   json chambers = json::object();
   for (const id::ParametricFit& fit : *fits) {
     if (!fit.error.empty()) return fit.name + ": " + fit.error;
-    for (const std::string& w : fit.warnings) Say("warning: " + fit.name + ": " + w);
     chambers[fit.name] = ChamberJson(fit);
+  }
+  if (refine_horizon_s > 0) {
+    if (std::string e = RefineOutputError(series, refine_horizon_s, threads, fits, &chambers); !e.empty()) return e;
+  }
+  for (const id::ParametricFit& fit : *fits) {
+    for (const std::string& w : fit.warnings) Say("warning: " + fit.name + ": " + w);
   }
   (*report)["chambers"] = chambers;
   if (!heldout) return "";
@@ -295,7 +341,8 @@ int RunIdentify(const IdentifyOptions& options) {
   if (held) report["heldout"]["log"] = options.heldout_path;
   std::vector<id::ParametricFit> fits;
   if (options.parametric) {
-    if (std::string e = FitParametric(model.get(), *train, held, options.threads, &fits, &report); !e.empty()) {
+    if (std::string e = FitParametric(model.get(), *train, held, options.refine_horizon_s, options.threads, &fits, &report);
+        !e.empty()) {
       return Fail(options.log_path + ": " + e);
     }
   }

@@ -20,6 +20,9 @@ struct IdentifyOptions {
   std::string write_identified_model_path;  // optional: the MJCF with pressure_model=identified, c1..c9
   std::vector<std::string> fit_keys;        // "<cyl>:<key>"; empty: the defaults of each cylinder
   bool parametric = true;       // fit paper 000's c1..c9 per chamber
+  // > 0: refine each chamber's one-step fit on its own predictions over sequences this long, s
+  // (identification/output_error_fit.h); 0: paper 000's one-step fit alone
+  double refine_horizon_s = 0;
   bool physical = true;         // fit the physical parameters
   int threads = 2;
 };

@@ -256,6 +256,11 @@ int main(int argc, char** argv) {
   identify->add_option("--fit", identify_options.fit_keys,
                        "physical parameter to fit, <cylinder>:<key> (repeatable; default: each cylinder's usual set)");
   bool skip_parametric = false, skip_physical = false;
+  identify->add_option("--refine-horizon", identify_options.refine_horizon_s,
+                       "refine each chamber's c1..c9 on the model's own predictions over sequences this long, s "
+                       "(output error; 0: paper 000's one-step fit alone)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 10.0));
   identify->add_flag("--skip-parametric", skip_parametric, "do not fit paper 000's c1..c9");
   identify->add_flag("--skip-physical", skip_physical, "do not fit the physical parameters");
   identify->add_option("--threads", identify_options.threads, "threads for the fits")->capture_default_str()
@@ -264,6 +269,8 @@ int main(int argc, char** argv) {
       "Parametric model (paper 000 eqs. 7-10): per chamber, c1..c9 by bounded least squares (Ceres) on the next-step\n"
       "prediction of the pressure, Table I's bounds, c_gamma = 0.1 V, c_b and c_s from p_supply and p_exhaust; v is the\n"
       "logged x, its rate the forward difference (x[t+1] - x[t]) / h. Needs valve=proportional_per_chamber.\n"
+      "--refine-horizon S then refines each chamber's c1..c9 on the model's own predictions (eq. 7 run from the measured\n"
+      "p for S seconds, from starts every S/2), the quantity paper 000's drift measures (the project's own addition).\n"
       "Physical parameters: the model's pressures simulated along the measured motion (pneumo rollout --follow-motion)\n"
       "fitted to the measured ones; standard errors from the covariance at the optimum (Newey-West for residuals\n"
       "correlated in time), with a flag on each poorly determined parameter naming the reason.");

@@ -161,6 +161,36 @@ TEST_F(IdentifyCommand, SameInputsGiveTheSameBytes) {
   EXPECT_TRUE(ReadText(Path("a.json")) == ReadText(Path("b.json")));
 }
 
+// --refine-horizon: each chamber refined on the model's own predictions (identification/output_error_fit.h)
+TEST_F(IdentifyCommand, RefinesOnTheModelsOwnPredictionsWhenAsked) {
+  const std::string train = Generate(23, 10);
+  std::string err;
+  for (const char* threads : {"1", "2"}) {
+    ASSERT_EQ(Pneumo("identify " + Quote(ShippedModel("rig_per_chamber.xml")) + " " + Quote(train) +
+                         " --skip-physical --refine-horizon 0.5 --threads " + threads + " --out " +
+                         Quote(Path(std::string("refined_") + threads + ".json")),
+                     &err),
+              0)
+        << err;
+  }
+  EXPECT_THAT(err, HasSubstr("over 0.5 s sequences (output error)"));
+  // the same bits whatever the threads
+  EXPECT_TRUE(ReadText(Path("refined_1.json")) == ReadText(Path("refined_2.json")));
+  const json report = json::parse(ReadText(Path("refined_1.json")));
+  for (const char* chamber : {"cyl.P", "cyl.N"}) {
+    const json& c = report["chambers"][chamber];
+    const json& refinement = c["output_error"];
+    ASSERT_TRUE(refinement.is_object()) << chamber;
+    EXPECT_EQ(refinement["horizon_s"].get<double>(), 0.5);
+    // 10 s at 100 Hz: 999 rows of series; 50-step sequences every 25 rows need 51 entries: 0, 25, ..., 925
+    EXPECT_EQ(refinement["sequences"].get<int>(), 38) << chamber;
+    EXPECT_LE(refinement["rms_after_pa"].get<double>(), refinement["rms_before_pa"].get<double>()) << chamber;
+    EXPECT_EQ(refinement["one_step_c"].size(), 9u);
+    // the one-step fit's standard errors do not hold at the refined c
+    for (const json& se : c["standard_error"]) EXPECT_TRUE(se.is_null()) << chamber;
+  }
+}
+
 TEST_F(IdentifyCommand, BadInputIsNamedAndWritesNothing) {
   const std::string train = Generate(23, 10);
   const std::string out = Path("bad.json");

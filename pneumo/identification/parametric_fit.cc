@@ -1,20 +1,19 @@
 #include "identification/parametric_fit.h"
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <limits>
 #include <memory>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include <ceres/ceres.h>
 #include <Eigen/Dense>
 
 #include "identification/drift.h"
+#include "identification/parallel_for.h"
 #include "identification/uncertainty.h"
 
 namespace pneumatic::identification {
@@ -470,15 +469,7 @@ ParametricFit FitChamber(const ChamberSeries& s, const ParametricFitOptions& opt
 std::vector<ParametricFit> FitChambers(const std::vector<ChamberSeries>& series, const ParametricFitOptions& options,
                                        int threads) {
   std::vector<ParametricFit> fits(series.size());
-  std::atomic<size_t> next{0};
-  auto work = [&] {
-    for (size_t i = next++; i < series.size(); i = next++) fits[i] = FitChamber(series[i], options);
-  };
-  const size_t workers = std::min(static_cast<size_t>(std::max(threads, 1)), std::max<size_t>(series.size(), 1));
-  std::vector<std::thread> pool;
-  for (size_t w = 1; w < workers; ++w) pool.emplace_back(work);
-  work();
-  for (std::thread& t : pool) t.join();
+  ParallelFor(series.size(), threads, [&](size_t i) { fits[i] = FitChamber(series[i], options); });
   return fits;
 }
 

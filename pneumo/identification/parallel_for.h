@@ -1,0 +1,31 @@
+// Work shared over threads: f(i) for i = 0..n-1, each index taken by the next free worker. Each f(i)
+// must depend on i alone (and write only its own result), so the results are the same whatever
+// `threads`.
+#ifndef PNEUMATIC_IDENTIFICATION_PARALLEL_FOR_H_
+#define PNEUMATIC_IDENTIFICATION_PARALLEL_FOR_H_
+
+#include <algorithm>
+#include <atomic>
+#include <cstddef>
+#include <thread>
+#include <vector>
+
+namespace pneumatic::identification {
+
+// runs f(0) ... f(n - 1) on min(threads, n) threads (threads < 1: 1), the calling one among them
+template <class F>
+void ParallelFor(std::size_t n, int threads, F f) {
+  std::atomic<std::size_t> next{0};
+  auto work = [&] {
+    for (std::size_t i = next++; i < n; i = next++) f(i);
+  };
+  const std::size_t workers = std::min(static_cast<std::size_t>(std::max(threads, 1)), std::max<std::size_t>(n, 1));
+  std::vector<std::thread> pool;
+  for (std::size_t w = 1; w < workers; ++w) pool.emplace_back(work);
+  work();
+  for (std::thread& t : pool) t.join();
+}
+
+}  // namespace pneumatic::identification
+
+#endif  // PNEUMATIC_IDENTIFICATION_PARALLEL_FOR_H_
