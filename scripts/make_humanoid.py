@@ -1,15 +1,15 @@
 #!/usr/bin/python3
 """Writes the pneumatic humanoid of issue 15 and its motor twin from one joint table.
 
-    scripts/make_humanoid.py            # writes the three models into models_mjcf/
+    scripts/make_humanoid.py            # writes the two models into models_mjcf/
     scripts/make_humanoid.py --table    # also prints each joint's cylinder, lever and capacity
 
 Outputs (all generated; do not edit them by hand):
   models_mjcf/humanoid_pneumatic.xml             every actuated joint driven by a pneumatic cylinder,
                                                  one proportional valve per chamber (paper 000)
-  models_mjcf/humanoid_pneumatic_identified.xml  the same, every chamber on pressure_model=identified
-                                                 with c1..c9 derived from the physical model (below)
   models_mjcf/humanoid_motors.xml                the same bodies, one plain motor per actuated joint
+Then scripts/identify_humanoid writes models_mjcf/humanoid_pneumatic_identified.xml from the first: every
+chamber on paper 000's identified model (pressure_model=identified), c1..c9 fitted to logs of it.
 
 Standard library only (Debian's /usr/bin/python3). Deterministic: the same table gives the same bytes.
 
@@ -58,25 +58,6 @@ Catalogue sizes used (Festo DSNU round cylinders, ISO 6432, catalogue: bores 10/
 with piston rods 4/6/6/8/10/12 mm; strokes from the catalogue steps 10, 25, 40, 50, 80, 100, 125 mm.
 Festo DSM semi-rotary drives, catalogue: theoretical torque at 6 bar 0.5 N m (DSM-8), 1 N m (DSM-10),
 1.25 N m (DSM-12), 2.5 N m (DSM-16), 5 N m (DSM-25), swivel angle adjustable up to 270 deg).
-
-The identified model (paper 000 eqs. 8-10, Table I), derived per chamber from the physical one until
-a fit to the robot exists (pneumo identify writes fitted values):
-  c1 = (U_c + U_r)/2 (Table I).
-  c2, c3: least squares of c_b + c_s g(c2 u + c3 u^3) on the physical steady-state pressure p_ss(u)
-      (paper 000 Fig. 7: supply flow = exhaust flow at fixed volume), u = 3..7 V every 0.05 V, on a
-      grid (c2 0.05..10 /V, c3 0..10 /V^3); result c2 = 2.25, c3 = 4.8, rms 47 kPa (the sigmoid cannot
-      follow the leaky smax openings of eq. 3 exactly). c7 ~ 10..220 /(V s) (large to small cylinders),
-      c8 = 0.256 (the supply port's chord flow exceeds the exhaust's), c9 = 0.223 V.
-  c7, c8, c9: r(u) = c7 (sqrt(u^2 + c_g^2) - c_g + c9 + c8 u) at mid-stroke, least squares on the
-      physical chord rate n r T (a_s(u) q_s + a_e(u) q_e) / V_mid over 3..7 V, where q_s is the
-      supply flow per port area into the chamber at c_b divided by (p_supply - c_b), q_e the exhaust
-      flow per area out of it at c_b divided by (c_b - p_exhaust) (the rate of a linear chamber with
-      the same flows at mid pressure), and V_mid = A l/2 + V0 (c_g = 0.1 V, paper 000).
-  c6 = +A/V_mid for chamber P and -A/V_mid for N: 1 + c6 x = V(x)/V_mid (Table I: volume-sensor scale).
-  c5 = 0 and c4 = -n c_b (+-A) / (V_mid r_ref), r_ref = c7 (1 - c_g + c9), the rate 1 V from the
-      centre: (c4 x') r_ref equals the compression term -n p A x' / V of paper 000 eq. 4a at p = c_b,
-      x = 0, 1 V from the centre (the project's own reduction; it underestimates compression when the
-      valve is sealed).
 """
 
 import math
@@ -88,15 +69,6 @@ P_SUPPLY = 6.2e5          # Pa abs, paper 000: 90 psi
 P_EXHAUST = 1.0e5         # Pa abs, rigs.md rig C
 TEMPERATURE = 293.0       # K, rigs.md rig C
 GAS_CONSTANT = 8.31 / 0.029   # J/(kg K), paper 000 Table II
-KAPPA = 1.4               # paper 000 Table II
-POLYTROPIC = 1.4          # adiabatic air
-C_DISCHARGE = 0.72        # paper 000 Table II
-Z = 0.99                  # paper 000 Table II
-AREA_GAIN = 2e-6          # m^2/V, rigs.md rig C (B)
-U_C, U_R = 5.3, 4.7       # V, rigs.md rig C
-LEAK = 5e-8               # m^2, rigs.md rig C (L_c = L_r)
-SMOOTH = 1e-6             # m^2, rigs.md rig C (area_smoothing)
-C_GAMMA = 0.1             # V, paper 000
 TIMESTEP = 0.001          # s, the project's choice (docstring)
 # the default view of renders and frames (pneumo render, rollout --frames): three-quarters from the front,
 # where the cylinders of the arms and legs and their pressure colours show, with the stand behind the pelvis
@@ -336,107 +308,6 @@ def design(row):
     return c
 
 
-# ---------------------------------------------------------------- the identified model (docstring)
-def thin_plate(pu, pd):
-    """paper 000 eq. 1 per unit area, kg/(s m^2); reversed flow negative"""
-    if pu < pd:
-        return -thin_plate(pd, pu)
-    zrt = Z * GAS_CONSTANT * TEMPERATURE
-    alpha = C_DISCHARGE * math.sqrt(2 / zrt * KAPPA / (KAPPA - 1))
-    beta = C_DISCHARGE * math.sqrt(KAPPA / zrt * (2 / (KAPPA + 1)) ** ((KAPPA + 1) / (KAPPA - 1)))
-    theta = ((KAPPA + 1) / 2) ** (KAPPA / (KAPPA - 1))
-    if pu > theta * pd:
-        return beta * pu
-    ratio = pd / pu
-    return alpha * pu * math.sqrt(max(ratio ** (2 / KAPPA) - ratio ** ((KAPPA + 1) / KAPPA), 0.0))
-
-
-def smax(y):
-    return (math.sqrt(y * y + 1) + y) / 2
-
-
-def openings(u):
-    """paper 000 eq. 3 as the extension evaluates it (plugin/src/valves.cc)"""
-    a_s = LEAK + SMOOTH * smax(((u - U_C) * AREA_GAIN - LEAK) / SMOOTH)
-    a_e = LEAK + SMOOTH * smax(((U_R - u) * AREA_GAIN - LEAK) / SMOOTH)
-    return a_s, a_e
-
-
-def steady_pressure(u):
-    """supply flow = exhaust flow at fixed volume (paper 000 Fig. 7), by bisection"""
-    a_s, a_e = openings(u)
-    lo, hi = P_EXHAUST, P_SUPPLY
-    for _ in range(100):
-        p = (lo + hi) / 2
-        q = a_s * thin_plate(P_SUPPLY, p) - a_e * thin_plate(p, P_EXHAUST)
-        lo, hi = (p, hi) if q > 0 else (lo, p)
-    return (lo + hi) / 2
-
-
-def solve3(a, b):
-    """Gaussian elimination for a 3x3 system"""
-    m = [list(a[i]) + [b[i]] for i in range(3)]
-    for i in range(3):
-        piv = max(range(i, 3), key=lambda k: abs(m[k][i]))
-        m[i], m[piv] = m[piv], m[i]
-        for k in range(i + 1, 3):
-            f = m[k][i] / m[i][i]
-            m[k] = [m[k][j] - f * m[i][j] for j in range(4)]
-    x = [0.0] * 3
-    for i in (2, 1, 0):
-        x[i] = (m[i][3] - sum(m[i][j] * x[j] for j in range(i + 1, 3))) / m[i][i]
-    return x
-
-
-def valve_fit():
-    """c1, c2, c3 and the rate shape (per unit n r T / V) shared by every chamber: the valves are alike"""
-    c_b, c_s = (P_SUPPLY + P_EXHAUST) / 2, (P_SUPPLY - P_EXHAUST) / 2
-    c1 = (U_C + U_R) / 2
-    us = [3 + 0.05 * i for i in range(81)]
-    pss = [steady_pressure(u) for u in us]
-    best = None
-    for i in range(1, 201):                 # c2 in 0.05 .. 10 /V
-        c2 = 0.05 * i
-        for j in range(0, 101):             # c3 in 0 .. 10 /V^3
-            c3 = 0.1 * j
-            err = 0.0
-            for u, p in zip(us, pss):
-                x = c2 * (u - c1) + c3 * (u - c1) ** 3
-                err += (c_b + c_s * x / math.sqrt(x * x + 1) - p) ** 2
-            if best is None or err < best[0]:
-                best = (err, c2, c3)
-    rms = math.sqrt(best[0] / len(us))
-    # chord flows per area at c_b, divided by the pressure distance they close
-    q_s = thin_plate(P_SUPPLY, c_b) / (P_SUPPLY - c_b)
-    q_e = thin_plate(c_b, P_EXHAUST) / (c_b - P_EXHAUST)
-    # rate * V / (n r T) = a_s q_s + a_e q_e = K (sqrt(u^2 + g^2) - g) + K c9 + K c8 u: linear in K, K c9, K c8
-    rows, ys = [], []
-    for u in us:
-        a_s, a_e = openings(u)
-        uh = u - c1
-        rows.append((math.sqrt(uh * uh + C_GAMMA ** 2) - C_GAMMA, 1.0, uh))
-        ys.append(a_s * q_s + a_e * q_e)
-    ata = [[sum(r[i] * r[j] for r in rows) for j in range(3)] for i in range(3)]
-    aty = [sum(r[i] * y for r, y in zip(rows, ys)) for i in range(3)]
-    k, kc9, kc8 = solve3(ata, aty)
-    return {"c1": c1, "c2": best[1], "c3": best[2], "ss_rms": rms, "K": k, "c9": kc9 / k, "c8": kc8 / k}
-
-
-def identified(c, chamber, fit):
-    """c1..c9 of one chamber (0 = P, 1 = N) of cylinder c"""
-    area = c.area_p if chamber == 0 else c.area_n
-    v_mid = area * c.stroke / 2 + c.dead
-    sign = 1 if chamber == 0 else -1
-    c7 = POLYTROPIC * GAS_CONSTANT * TEMPERATURE * fit["K"] / v_mid
-    c9 = max(fit["c9"], 1e-3)
-    c8 = min(max(fit["c8"], -0.99), 0.99)
-    r_ref = c7 * (1 - C_GAMMA + c9)
-    c_b = (P_SUPPLY + P_EXHAUST) / 2
-    c4 = -POLYTROPIC * c_b * sign * area / (v_mid * r_ref)
-    c6 = sign * area / v_mid
-    return [fit["c1"], fit["c2"], fit["c3"], c4, 0.0, c6, c7, c8, c9]
-
-
 # ---------------------------------------------------------------- MJCF
 HEADER = """<!-- GENERATED by scripts/make_humanoid.py: do not edit by hand; change the table there and rerun.
      {what}
@@ -516,7 +387,7 @@ def worldbody(rows, cyls, with_sites):
     return "\n".join(out)
 
 
-def custom_text(c, fit, model):
+def custom_text(c):
     # commands=chambers: uP and uN are the ctrl of <name>.P and <name>.N (two actuators per cylinder, not four)
     keys = ["valve=proportional_per_chamber commands=chambers" + (" mount=hinge_sites" if c.kind == "dsnu" else ""),
             "stroke=%s" % num(c.stroke), "x_mid=%s" % num(c.x_mid)]
@@ -525,20 +396,13 @@ def custom_text(c, fit, model):
                 (num(P_SUPPLY), num(P_EXHAUST), num(TEMPERATURE), num(GAS_CONSTANT)))
     keys.append("heat_capacity_ratio=1.4 polytropic_index=1.4 compressibility=0.99 flow=thin_plate discharge_coefficient=0.72")
     keys.append("area_gain=2e-6 u_supply_seal=5.3 u_exhaust_seal=4.7 leak_area_supply=5e-8 leak_area_exhaust=5e-8 area_smoothing=1e-6")
-    if model == "identified":
-        keys.append("pressure_model=identified")
-        for k, ch in ((0, "P"), (1, "N")):
-            cs = identified(c, k, fit)
-            keys.append(" ".join("%s.c%d=%s" % (ch, i + 1, num(v)) for i, v in enumerate(cs)))
     return "\n          ".join(keys)
 
 
-def write_pneumatic(rows, cyls, mass, fit, model):
-    what = ("Pneumatic humanoid, identified pressure model (paper 000 eq. 10) with c1..c9 DERIVED from the "
-            "physical model (no fit to a robot yet; see the script).") if model == "identified" else \
-           "Pneumatic humanoid: every actuated joint driven by a cylinder, one proportional valve per chamber (paper 000)."
+def write_pneumatic(rows, cyls, mass):
+    what = "Pneumatic humanoid: every actuated joint driven by a cylinder, one proportional valve per chamber (paper 000)."
     lines = [HEADER.format(what=what, mass=mass).rstrip("\n")]
-    lines.append('<mujoco model="humanoid_pneumatic%s">' % ("_identified" if model == "identified" else ""))
+    lines.append('<mujoco model="humanoid_pneumatic">')
     lines.append("  <!-- the pneumatic extension stores each cylinder's parameters in its actuators' user data -->")
     lines.append('  <size nuser_actuator="128"/>')
     lines.append("  <!-- 1 ms, Euler: README \"Accuracy\" (rig C: 0.013 % pressure error along a given motion at 1 ms) -->")
@@ -573,7 +437,7 @@ def write_pneumatic(rows, cyls, mass, fit, model):
             desc = "%s: %g N m at 6 bar -> D = %s m^3/rad; stroke = range + 10 deg" % (
                 c.label, DSM_TORQUE[c.size], num(c.area_p))
         lines.append("    <!-- %s -->" % desc)
-        lines.append('    <text name="pneumatic:%s" data="%s"/>' % (c.name, custom_text(c, fit, model)))
+        lines.append('    <text name="pneumatic:%s" data="%s"/>' % (c.name, custom_text(c)))
     lines.append("  </custom>")
     lines.append("</mujoco>")
     return "\n".join(lines) + "\n"
@@ -609,20 +473,16 @@ def main():
     for row in rows:
         cyls[row[0]] = design(row)
     mass = total_mass(rows)
-    fit = valve_fit()
     here = os.path.dirname(os.path.abspath(__file__))
     models = os.path.join(os.path.dirname(here), "models_mjcf")
     files = {
-        "humanoid_pneumatic.xml": write_pneumatic(rows, cyls, mass, fit, "physical"),
-        "humanoid_pneumatic_identified.xml": write_pneumatic(rows, cyls, mass, fit, "identified"),
+        "humanoid_pneumatic.xml": write_pneumatic(rows, cyls, mass),
         "humanoid_motors.xml": write_motors(rows, cyls, mass),
     }
     for name, text in files.items():
         with open(os.path.join(models, name), "w") as f:
             f.write(text)
     if "--table" in sys.argv:
-        print("valve fit: c1 %.3f c2 %.3f c3 %.3f (steady-state rms %.0f Pa), K %.4g, c8 %.4f, c9 %.4f" % (
-            fit["c1"], fit["c2"], fit["c3"], fit["ss_rms"], fit["K"], fit["c8"], fit["c9"]))
         for c in cyls.values():
             extra = "r %5.1f mm d %.3f m L %.4f..%.4f" % (c.r * 1000, c.d, c.l_min, c.l_max) if c.r else ""
             print("%-18s %-18s span %5.1f deg stroke %.4f torque %6.2f N m damping %.3f %s" % (

@@ -5,6 +5,7 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -18,6 +19,7 @@
 #include "identification/output_error_fit.h"
 #include "identification/parametric_fit.h"
 #include "log_csv.h"
+#include "pneumatic/pneumatic.h"
 #include "test_util.h"
 
 namespace pneumatic::identification {
@@ -451,6 +453,45 @@ TEST(RigC, FitsFromDifferentStartsReachTheSameOptimumOrWarn) {
   }
   std::printf("%d of %d starts reached the default start's optimum\n", same, starts);
   EXPECT_GE(same, starts - 2);
+}
+
+// The shipped identified humanoid (models_mjcf/humanoid_pneumatic_identified.xml, written by
+// scripts/identify_humanoid from 100 s logs of the physical humanoid, seeds 1 and 2) against a log it
+// has not seen: 30 s of the physical humanoid under `pneumo generate`, seed 3. Paper 000 V.D, Fig. 13:
+// the pooled drift after 2 s is "less than 10 %" and "usually less than 4 %". Measured: 4.18 % (on
+// the fit's own held-out log 3.71 %); the chambers over 10 % are printed (here waist_pitch.N, 14.5 %;
+// on the held-out log l_shoulder_shrug.N, 11.7 %: chambers whose data has little in it).
+TEST(Humanoid, IdentifiedModelPredictsAnUnseenLogWithinPaper000sDrift) {
+  AttachedModel physical, identified;
+  ASSERT_TRUE(physical.Load(ShippedModel("humanoid_pneumatic.xml"), true)) << physical.error();
+  ASSERT_TRUE(identified.Load(ShippedModel("humanoid_pneumatic_identified.xml"), true)) << identified.error();
+  GenerateOptions options;
+  options.duration = 30;
+  options.seed = 3;
+  const GenerateResult generated = Generate(physical.m(), options);
+  ASSERT_TRUE(generated.log) << generated.error;
+  std::vector<ChamberSeries> series;
+  ASSERT_EQ(ExtractChambers(physical.m(), *generated.log, &series), "");
+  ASSERT_EQ(series.size(), 72u);
+  std::vector<ParametricModel> models;
+  for (const ChamberSeries& s : series) {
+    const std::string cylinder = s.name.substr(0, s.name.size() - 2), chamber = s.name.substr(s.name.size() - 1);
+    std::array<double, 9> c{};
+    for (size_t i = 0; i < 9; ++i) {
+      std::string error;
+      const std::optional<double> value = GetParameter(identified.m(), cylinder, chamber + ".c" + std::to_string(i + 1), &error);
+      ASSERT_TRUE(value) << s.name << ": " << error;
+      c[i] = *value;
+    }
+    models.push_back(ModelFor(s, c));
+    const DriftCurve drift = Drift(s, models.back());
+    ASSERT_EQ(drift.error, "") << s.name;
+    if (drift.std_pct.back() > 10) std::printf("%s: %.2f %% at 2 s\n", s.name.c_str(), drift.std_pct.back());
+  }
+  const DriftCurve pooled = PoolDrift(series, models);
+  ASSERT_EQ(pooled.error, "");
+  std::printf("the identified humanoid on an unseen 30 s log: pooled drift %.2f %% at 2 s\n", pooled.std_pct.back());
+  EXPECT_LT(pooled.std_pct.back(), 10.0);
 }
 
 // ---------------------------------------------------------------------------------------------
