@@ -131,7 +131,7 @@ std::string RefineOutputError(const std::vector<id::ChamberSeries>& series, doub
     fit.one_step_fit_pct = score.fit_pct;
     fit.standard_error.fill(std::nan(""));
     for (std::string& w : fit.warnings) w = "one-step fit: " + w;
-    if (!r.converged) fit.warnings.push_back("output-error refinement: not converged in " + std::to_string(r.iterations) + " iterations");
+    for (const std::string& w : r.warnings) fit.warnings.push_back("output-error refinement: " + w);
     json entry = ChamberJson(fit);
     entry["output_error"] = {{"horizon_s", horizon_s},
                              {"sequences", r.sequences},

@@ -88,6 +88,8 @@ OutputErrorFit RefineOutputError(const ChamberSeries& series, const ParametricMo
   fit.iterations = static_cast<int>(summary.iterations.size());
   fit.converged = summary.termination_type == ceres::CONVERGENCE;
   fit.model.c = c;
+  if (!fit.converged) fit.warnings.push_back("not converged: " + summary.message);
+  for (std::string& w : ModelWarnings(series, bounds, fit.model)) fit.warnings.push_back(std::move(w));
   return fit;
 }
 

@@ -38,6 +38,7 @@ struct OutputErrorFit {
   int sequences = 0;
   int iterations = 0;
   bool converged = false;      // Ceres ended on a convergence criterion
+  std::vector<std::string> warnings;  // ModelWarnings of the refined c, and "not converged"
   std::string error;
 };
 

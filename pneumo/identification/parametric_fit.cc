@@ -289,26 +289,11 @@ std::vector<double> UncertaintyScales(const ChamberSeries& s) {
   };
 }
 
-// the warnings on a fit: poorly determined parameters, parameters on a bound, negative rates
+// the warnings on a fit: not converged, and ModelWarnings
 void AddWarnings(const ChamberSeries& s, const ParameterBounds& bounds, const StartResult& best,
                  ParametricFit* fit) {
   if (!best.converged) fit->warnings.push_back("not converged: " + best.message);
-  for (size_t k = 0; k < 9; ++k) {
-    const double c = fit->model.c[k];
-    if (c == bounds.lower[k] || c == bounds.upper[k]) {
-      fit->warnings.push_back(kNames[k] + " = " + Format("%.6g", c) + " is on its " +
-                              (c == bounds.lower[k] ? "lower" : "upper") + " bound (paper 000 Table I / MJCF range)");
-    }
-  }
-  size_t negative = 0;
-  for (size_t t = 0; t + 1 < s.p.size(); ++t) {
-    if (EvaluateModel(fit->model, s.u[t], s.x[t], s.x_rate[t]).r < 0) ++negative;
-  }
-  const double fraction = static_cast<double>(negative) / static_cast<double>(s.p.size() - 1);
-  if (fraction > 0.01) {
-    fit->warnings.push_back("the fitted rate r of eq. 10e is negative on " + Format("%.1f", 100 * fraction) +
-                            " % of the samples (the prediction holds the pressure there, r clamped at 0)");
-  }
+  for (std::string& w : ModelWarnings(s, bounds, fit->model)) fit->warnings.push_back(std::move(w));
 }
 
 void AddUncertainty(const ChamberSeries& s, const Samples& full, ParametricFit* fit) {
@@ -336,6 +321,27 @@ void AddUncertainty(const ChamberSeries& s, const Samples& full, ParametricFit* 
 }
 
 }  // namespace
+
+std::vector<std::string> ModelWarnings(const ChamberSeries& s, const ParameterBounds& bounds, const ParametricModel& model) {
+  std::vector<std::string> warnings;
+  for (size_t k = 0; k < 9; ++k) {
+    const double c = model.c[k];
+    if (c == bounds.lower[k] || c == bounds.upper[k]) {
+      warnings.push_back(kNames[k] + " = " + Format("%.6g", c) + " is on its " +
+                         (c == bounds.lower[k] ? "lower" : "upper") + " bound (paper 000 Table I / MJCF range)");
+    }
+  }
+  size_t negative = 0;
+  for (size_t t = 0; t + 1 < s.p.size(); ++t) {
+    if (EvaluateModel(model, s.u[t], s.x[t], s.x_rate[t]).r < 0) ++negative;
+  }
+  const double fraction = static_cast<double>(negative) / static_cast<double>(s.p.size() - 1);
+  if (fraction > 0.01) {
+    warnings.push_back("the fitted rate r of eq. 10e is negative on " + Format("%.1f", 100 * fraction) +
+                       " % of the samples (the prediction holds the pressure there, r clamped at 0)");
+  }
+  return warnings;
+}
 
 ParametricModel ModelFor(const ChamberSeries& s, const std::array<double, 9>& c) {
   ParametricModel model;

@@ -58,6 +58,12 @@ struct ParameterBounds {
 };
 ParameterBounds BoundsFor(const ChamberSeries& series);
 
+// What a fitted model's c1..c9 say about the fit on this series: each parameter on a bound, and the
+// share of samples where eq. 10e's rate r is negative (the prediction holds the pressure there),
+// when over 1 %.
+std::vector<std::string> ModelWarnings(const ChamberSeries& series, const ParameterBounds& bounds,
+                                       const ParametricModel& model);
+
 // The documented default initial guess, from physics and the series (see parametric_fit.cc).
 std::array<double, 9> DefaultInitialGuess(const ChamberSeries& series);
 
