@@ -9,11 +9,11 @@
 #include <memory>
 #include <mutex>
 #include <sstream>
-#include <thread>
 #include <utility>
 
 #include <ceres/ceres.h>
 
+#include "identification/parallel_for.h"
 #include "pneumatic/pneumatic.h"
 #include "rollout.h"
 
@@ -184,15 +184,7 @@ class Simulator {
                                           std::vector<Eigen::VectorXd>* out) const {
     out->assign(sets.size(), Eigen::VectorXd());
     std::vector<std::string> errors(sets.size());
-    std::atomic<size_t> next{0};
-    auto work = [&] {
-      for (size_t i = next++; i < sets.size(); i = next++) errors[i] = Residuals(sets[i], &(*out)[i]);
-    };
-    std::vector<std::thread> pool;
-    size_t extra = std::min(sets.size(), static_cast<size_t>(std::max(threads, 1))) - 1;
-    for (size_t t = 0; t < extra; ++t) pool.emplace_back(work);
-    work();
-    for (std::thread& t : pool) t.join();
+    ParallelFor(sets.size(), threads, [&](size_t i) { errors[i] = Residuals(sets[i], &(*out)[i]); });
     return errors;
   }
 
