@@ -109,8 +109,8 @@ json DriftJson(const id::DriftCurve& curve) {
 // each one-step fit replaced by its output-error refinement (identification/output_error_fit.h); the
 // chamber's JSON keeps the one-step c and says what the refinement did. Standard errors are the
 // one-step fit's covariance, which does not hold at the refined c: they become null
-std::string RefineOutputError(const std::vector<id::ChamberSeries>& series, double horizon_s, int threads,
-                              std::vector<id::ParametricFit>* fits, json* chambers) {
+std::string RefineFits(const std::vector<id::ChamberSeries>& series, double horizon_s, int threads,
+                       std::vector<id::ParametricFit>* fits, json* chambers) {
   char line[120];
   std::snprintf(line, sizeof(line), "refining each chamber's fit on its own predictions over %g s sequences (output error)",
                 horizon_s);
@@ -160,7 +160,7 @@ std::string FitParametric(const mjModel* m, const log::Log& train, const log::Lo
     chambers[fit.name] = ChamberJson(fit);
   }
   if (refine_horizon_s > 0) {
-    if (std::string e = RefineOutputError(series, refine_horizon_s, threads, fits, &chambers); !e.empty()) return e;
+    if (std::string e = RefineFits(series, refine_horizon_s, threads, fits, &chambers); !e.empty()) return e;
   }
   for (const id::ParametricFit& fit : *fits) {
     for (const std::string& w : fit.warnings) Say("warning: " + fit.name + ": " + w);
