@@ -49,20 +49,42 @@ std::string ReadGains(const json& object, const std::string& where, PositionPidG
 
 }  // namespace
 
-std::string ReadControllerConfig(const std::string& path, ClosedLoopOptions* options) {
-  json config;
-  if (std::string e = ReadJsonFile(path, &config); !e.empty()) return e;
-  if (!config.is_object()) return path + ": expected a JSON object";
-  if (std::string e = ReadGains(config, path, &options->gains); !e.empty()) return e;
+std::string ModelControllerConfig(const mjModel* m, const std::string& controller, json* out, std::string* where,
+                                  bool* found) {
+  *found = false;
+  const std::string element = kModelControllerConfigPrefix + controller;
+  for (int i = 0; i < m->ntext; ++i) {
+    if (element != m->names + m->name_textadr[i]) continue;
+    *where = "the model's custom text '" + element + "'";
+    try {
+      *out = json::parse(m->text_data + m->text_adr[i]);
+    } catch (const json::parse_error& e) {
+      return *where + ": " + e.what();
+    }
+    *found = true;
+    return "";
+  }
+  return "";
+}
+
+std::string ReadControllerConfig(const json& config, const std::string& where, ClosedLoopOptions* options) {
+  if (!config.is_object()) return where + ": expected a JSON object";
+  if (std::string e = ReadGains(config, where, &options->gains); !e.empty()) return e;
   if (config.contains("cylinders")) {
-    if (!config["cylinders"].is_object()) return path + ": 'cylinders' must be an object of cylinder names";
+    if (!config["cylinders"].is_object()) return where + ": 'cylinders' must be an object of cylinder names";
     for (const auto& [name, object] : config["cylinders"].items()) {
       PositionPidGains gains = options->gains;
-      if (std::string e = ReadGains(object, path + ": cylinders." + name, &gains); !e.empty()) return e;
+      if (std::string e = ReadGains(object, where + ": cylinders." + name, &gains); !e.empty()) return e;
       options->cylinder_gains[name] = gains;
     }
   }
   return "";
+}
+
+std::string ReadControllerConfig(const std::string& path, ClosedLoopOptions* options) {
+  json config;
+  if (std::string e = ReadJsonFile(path, &config); !e.empty()) return e;
+  return ReadControllerConfig(config, path, options);
 }
 
 }  // namespace pneumatic

@@ -192,7 +192,8 @@ int main(int argc, char** argv) {
                       "control period aims to close, default 0.25), "
                       "\"cylinders\": {NAME: {...}}; the others: a flat "
                       "object of numbers, keys and units in their headers (controllers/*.h); an unknown or "
-                      "out-of-range key is refused, named");
+                      "out-of-range key is refused, named. Default: the configuration the model carries, "
+                      "<text name=\"pneumo:controller:NAME\" data='{...}'> in its <custom>, if it has one");
   rollout->add_option("--reference", closed.reference_path, "log with <cylinder>.ref columns: the targets (default: hold the initial pose)");
   rollout->add_option("--control-rate", closed.control_rate, "controller ticks per second (commands held between)")
       ->capture_default_str();

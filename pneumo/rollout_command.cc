@@ -36,13 +36,11 @@ int Fail(const std::string& message) {
 }
 
 // The papers' controllers take "key=value ..." configurations (their key tables name units and
-// ranges); --controller-config gives them as a flat JSON object of numbers.
-std::string JsonToKeyValues(const std::string& path, std::string* text) {
-  json config;
-  if (std::string e = ReadJsonFile(path, &config); !e.empty()) return e;
-  if (!config.is_object()) return path + ": expected a JSON object of key: number";
+// ranges); their JSON configuration gives them as a flat object of numbers.
+std::string JsonToKeyValues(const json& config, const std::string& where, std::string* text) {
+  if (!config.is_object()) return where + ": expected a JSON object of key: number";
   for (const auto& [key, value] : config.items()) {
-    if (!value.is_number()) return path + ": key '" + key + "' must be a number";
+    if (!value.is_number()) return where + ": key '" + key + "' must be a number";
     char number[64];
     std::snprintf(number, sizeof(number), "%.17g", value.get<double>());
     *text += key + "=" + number + " ";
@@ -50,14 +48,14 @@ std::string JsonToKeyValues(const std::string& path, std::string* text) {
   return "";
 }
 
-// the factory of one of the papers' controllers, its configuration read now (errors name the key)
-std::string PaperController(const ClosedLoopCommandOptions& options, ClosedLoopOptions* out) {
+// the factory of one of the papers' controllers, its configuration (`config` from `where`, if any)
+// read now (errors name the key)
+std::string PaperController(const std::string& name, const json* config, const std::string& where,
+                            ClosedLoopOptions* out) {
   std::string text;
-  if (!options.controller_config_path.empty()) {
-    if (std::string e = JsonToKeyValues(options.controller_config_path, &text); !e.empty()) return e;
+  if (config) {
+    if (std::string e = JsonToKeyValues(*config, where, &text); !e.empty()) return e;
   }
-  const std::string& name = options.controller;
-  const std::string where = options.controller_config_path.empty() ? name : options.controller_config_path;
   std::string error;
   out->controller = "custom";
   if (name == "sliding3" || name == "sliding7") {
@@ -182,11 +180,28 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
   base.control_rate = options.control_rate;
   base.noise_pressure = options.noise_pressure;
   base.noise_position = options.noise_position;
+  // the controller's configuration: --controller-config, else the one the model carries, else none
+  // (the controller's defaults)
+  json config;
+  std::string config_source = options.controller_config_path;
+  bool configured = !config_source.empty();
+  if (configured) {
+    if (std::string e = ReadJsonFile(config_source, &config); !e.empty()) return Fail(e);
+  } else if (std::string e = ModelControllerConfig(model.get(), options.controller, &config, &config_source, &configured);
+             !e.empty()) {
+    return Fail(options.model_path + ": " + e);
+  } else if (configured) {
+    config_source = options.model_path + ": " + config_source;
+    std::fprintf(stderr, "pneumo rollout: %s configuration from %s (--controller-config replaces it)\n",
+                 options.controller.c_str(), config_source.c_str());
+  }
   if (options.controller == "pid" || options.controller == "none") {
-    if (!options.controller_config_path.empty()) {
-      if (std::string e = ReadControllerConfig(options.controller_config_path, &base); !e.empty()) return Fail(e);
+    if (configured) {
+      if (std::string e = ReadControllerConfig(config, config_source, &base); !e.empty()) return Fail(e);
     }
-  } else if (std::string e = PaperController(options, &base); !e.empty()) {
+  } else if (std::string e = PaperController(options.controller, configured ? &config : nullptr,
+                                             configured ? config_source : options.controller, &base);
+             !e.empty()) {
     return Fail(e);
   }
   std::optional<log::Log> reference;

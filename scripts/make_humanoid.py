@@ -8,6 +8,9 @@ Outputs (all generated; do not edit them by hand):
   models_mjcf/humanoid_pneumatic.xml             every actuated joint driven by a pneumatic cylinder,
                                                  one proportional valve per chamber (paper 000)
   models_mjcf/humanoid_motors.xml                the same bodies, one plain motor per actuated joint
+The pneumatic model carries the PID gains it is tuned with, models_mjcf/humanoid_pid.json (written by
+hand: README "The humanoid under PID"), as <text name="pneumo:controller:pid">, which
+`pneumo rollout --controller pid` uses unless --controller-config replaces it.
 Then scripts/identify_humanoid writes models_mjcf/humanoid_pneumatic_identified.xml from the first: every
 chamber on paper 000's identified model (pressure_model=identified), c1..c9 fitted to logs of it.
 
@@ -60,9 +63,11 @@ Festo DSM semi-rotary drives, catalogue: theoretical torque at 6 bar 0.5 N m (DS
 1.25 N m (DSM-12), 2.5 N m (DSM-16), 5 N m (DSM-25), swivel angle adjustable up to 270 deg).
 """
 
+import json
 import math
 import os
 import sys
+from xml.sax.saxutils import quoteattr
 
 # ---------------------------------------------------------------- constants (see the docstring)
 P_SUPPLY = 6.2e5          # Pa abs, paper 000: 90 psi
@@ -399,7 +404,7 @@ def custom_text(c):
     return "\n          ".join(keys)
 
 
-def write_pneumatic(rows, cyls, mass):
+def write_pneumatic(rows, cyls, mass, pid_gains):
     what = "Pneumatic humanoid: every actuated joint driven by a cylinder, one proportional valve per chamber (paper 000)."
     lines = [HEADER.format(what=what, mass=mass).rstrip("\n")]
     lines.append('<mujoco model="humanoid_pneumatic">')
@@ -429,6 +434,9 @@ def write_pneumatic(rows, cyls, mass):
             lines.append('    <general name="%s.%s" joint="%s" dyntype="user" gaintype="user" ctrllimited="true" ctrlrange="0 10"/>' % (c.name, role, c.joint))
     lines.append("  </actuator>")
     lines.append("  <custom>")
+    lines.append("    <!-- the PID gains this model is tuned with (models_mjcf/humanoid_pid.json, README \"The humanoid under")
+    lines.append("         PID\"): pneumo rollout --controller pid uses them unless --controller-config replaces them -->")
+    lines.append("    <text name=\"pneumo:controller:pid\" data=%s/>" % quoteattr(json.dumps(pid_gains)))
     for c in cyls.values():
         if c.kind == "dsnu":
             desc = "%s: A_P = pi %g^2/4, A_N with its %g mm rod; lever %.1f mm, length %.4f..%.4f m over the range" % (
@@ -475,8 +483,10 @@ def main():
     mass = total_mass(rows)
     here = os.path.dirname(os.path.abspath(__file__))
     models = os.path.join(os.path.dirname(here), "models_mjcf")
+    with open(os.path.join(models, "humanoid_pid.json")) as f:
+        pid_gains = json.load(f)
     files = {
-        "humanoid_pneumatic.xml": write_pneumatic(rows, cyls, mass),
+        "humanoid_pneumatic.xml": write_pneumatic(rows, cyls, mass, pid_gains),
         "humanoid_motors.xml": write_motors(rows, cyls, mass),
     }
     for name, text in files.items():
