@@ -329,6 +329,21 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
     s.name = ch.info.name;
     s.p_min[0] = s.p_min[1] = 1e300, s.p_max[0] = s.p_max[1] = -1e300;
     summary.cylinders.push_back(s);
+    // a target the piston cannot reach: x within half the stroke of mid-stroke (m, or rad for a vane)
+    if (ch.reference.given()) {
+      std::string ignored;
+      const double half_stroke = GetParameter(m, ch.info.name, "stroke", &ignored).value_or(1e300) / 2;
+      const std::vector<double>& ref = options.reference->values[static_cast<size_t>(options.reference->FindColumn(ch.info.name, "ref"))];
+      const auto [low, high] = std::minmax_element(ref.begin(), ref.end());
+      if (*low < -half_stroke || *high > half_stroke) {
+        char text[300];
+        std::snprintf(text, sizeof(text),
+                      "cylinder '%s': its reference reaches %.6g, beyond the stroke (x within +-%.6g of mid-stroke): "
+                      "the piston cannot follow there",
+                      ch.info.name.c_str(), *low < -half_stroke ? *low : *high, half_stroke);
+        summary.warnings.push_back(text);
+      }
+    }
   }
   std::vector<double> squared_error(channels.size(), 0);
   // every chamber's pressure range, sampled after every step (the summary's p_min, p_max)

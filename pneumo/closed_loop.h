@@ -82,7 +82,7 @@ struct ClosedLoopSummary {
   long steps = 0;
   double simulated_s = 0, wall_s = 0, real_time_factor = 0;
   std::vector<CylinderSummary> cylinders;
-  std::vector<std::string> warnings;  // MuJoCo warnings raised, chambers outside the supply range
+  std::vector<std::string> warnings;  // references beyond a stroke, chambers outside the supply range, MuJoCo warnings raised
 };
 
 struct ClosedLoopResult {

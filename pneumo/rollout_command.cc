@@ -292,10 +292,13 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
           }
           if (e.empty()) {
             std::lock_guard<std::mutex> lock(report);
-            std::fprintf(stderr, "pneumo rollout: %s: %.2f s simulated, real-time factor %.2f%s%s\n", run.name.c_str(),
-                         result.summary.simulated_s, result.summary.real_time_factor,
-                         result.summary.warnings.empty() ? "" : "; warning: ",
-                         result.summary.warnings.empty() ? "" : result.summary.warnings.front().c_str());
+            const std::vector<std::string>& warnings = result.summary.warnings;
+            const std::string more = warnings.size() > 1 ? " (and " + std::to_string(warnings.size() - 1) +
+                                                               " more warnings: --summary lists them)"
+                                                         : "";
+            std::fprintf(stderr, "pneumo rollout: %s: %.2f s simulated, real-time factor %.2f%s%s%s\n", run.name.c_str(),
+                         result.summary.simulated_s, result.summary.real_time_factor, warnings.empty() ? "" : "; warning: ",
+                         warnings.empty() ? "" : warnings.front().c_str(), more.c_str());
           }
         }
       }

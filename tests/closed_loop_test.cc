@@ -155,6 +155,26 @@ TEST(ClosedLoop, LogsTheSupplyPressureTheValvesSee) {
   }
 }
 
+// A reference the piston cannot reach is followed as far as the stroke goes and named in the
+// summary's warnings: rig C's stroke is 0.1 m, so x reaches at most 0.05 m either side of mid-stroke
+TEST(ClosedLoop, WarnsOfAReferenceBeyondTheStroke) {
+  AttachedModel model;
+  ASSERT_TRUE(model.Load(ShippedModel("rig_per_chamber.xml"), true)) << model.error();
+  ClosedLoopOptions options;
+  options.duration = 0.1;
+  const std::string beyond = "cylinder 'cyl': its reference reaches -0.06, beyond the stroke (x within +-0.05 of mid-stroke)";
+  for (const double target : {0.05, -0.06}) {
+    const log::Log reference = StepReference(target);
+    options.reference = &reference;
+    ClosedLoopResult result = RunClosedLoop(model.m(), options);
+    ASSERT_TRUE(result.log) << result.error;
+    const bool warned = std::any_of(result.summary.warnings.begin(), result.summary.warnings.end(),
+                                    [&](const std::string& w) { return w.rfind(beyond, 0) == 0; });
+    EXPECT_EQ(warned, target < -0.05) << target;
+    EXPECT_EQ(result.summary.warnings.size(), target < -0.05 ? 1u : 0u) << target;
+  }
+}
+
 TEST(ClosedLoop, SameOptionsGiveTheSameLogAndNoiseChangesIt) {
   AttachedModel model;
   ASSERT_TRUE(model.Load(ShippedModel("rig_per_chamber.xml"), true)) << model.error();
