@@ -2,13 +2,11 @@
 
 #include <unistd.h>
 
-#include <atomic>
 #include <cstdio>
 #include <fstream>
 #include <memory>
 #include <mutex>
 #include <sstream>
-#include <thread>
 
 #include <mujoco/mujoco.h>
 #include <nlohmann/json.hpp>
@@ -22,6 +20,7 @@
 #include "log_csv.h"
 #include "model_loading.h"
 #include "output_file.h"
+#include "parallel_for.h"
 #include "pneumatic/pneumatic.h"
 #include "render_command.h"
 
@@ -233,87 +232,80 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
     return Fail("--frames renders one run: give one seed and no variations");
   }
   // each run on its own copy of the model; workers take runs in order, outputs are per run
-  std::atomic<size_t> next{0}, done{0};
+  size_t done = 0;  // runs finished (counted under `report`)
   std::mutex report;
   std::vector<std::string> errors(runs.size());
   const bool single = runs.size() == 1;
   ProgressBar bar(options.duration);
-  auto worker = [&]() {
-    for (size_t i = next++; i < runs.size(); i = next++) {
-      const Run& run = runs[i];
-      std::unique_ptr<mjModel, void (*)(mjModel*)> copy(mj_copyModel(nullptr, model.get()), mj_deleteModel);
-      std::string e;
-      if (run.variation) {
-        for (const auto& [name, value] : run.variation->parameters) {
-          const size_t colon = name.find(':');
-          if (colon == std::string::npos) {
-            e = "variation '" + run.variation->name + "': '" + name + "' is not <cylinder>:<key>";
-          } else if (!SetParameter(copy.get(), name.substr(0, colon), name.substr(colon + 1), value, &e)) {
-            e = "variation '" + run.variation->name + "': " + e;
-          }
-          if (!e.empty()) break;
+  ParallelFor(runs.size(), options.jobs, [&](size_t i) {
+    const Run& run = runs[i];
+    std::unique_ptr<mjModel, void (*)(mjModel*)> copy(mj_copyModel(nullptr, model.get()), mj_deleteModel);
+    std::string e;
+    if (run.variation) {
+      for (const auto& [name, value] : run.variation->parameters) {
+        const size_t colon = name.find(':');
+        if (colon == std::string::npos) {
+          e = "variation '" + run.variation->name + "': '" + name + "' is not <cylinder>:<key>";
+        } else if (!SetParameter(copy.get(), name.substr(0, colon), name.substr(colon + 1), value, &e)) {
+          e = "variation '" + run.variation->name + "': " + e;
         }
-      }
-      if (e.empty()) {
-        ClosedLoopOptions o = base;
-        o.seed = run.seed;
-        if (single) o.progress = [&](double f) { bar(f); };
-        std::unique_ptr<FrameWriter> frames;
-        if (!options.frames_dir.empty()) {
-          FrameOptions frame_options;
-          frame_options.dir = options.frames_dir;
-          frame_options.fps = options.fps;
-          frame_options.width = options.width, frame_options.height = options.height;
-          frame_options.camera = options.camera;
-          frames = FrameWriter::Create(copy.get(), frame_options, &e);
-          if (frames) o.observer = [&](const mjData* d) { return frames->Offer(d); };
-        }
-        ClosedLoopResult result = e.empty() ? RunClosedLoop(copy.get(), o) : ClosedLoopResult{};
-        if (e.empty() && result.log && frames) {
-          e = frames->Finish();
-          if (e.empty()) {
-            std::lock_guard<std::mutex> lock(report);
-            std::fprintf(stderr, "pneumo rollout: wrote %d frames to %s%s%s\n", frames->frames_written(),
-                         options.frames_dir.c_str(), frames->video_path().empty() ? "" : " and ",
-                         frames->video_path().c_str());
-          }
-        }
-        if (!e.empty()) {
-          // nothing more to do for this run
-        } else if (!result.log) {
-          e = result.error;
-        } else {
-          result.log->comments.insert(result.log->comments.begin(), "model: " + options.model_path);
-          result.log->comments.push_back("run " + run.name);
-          e = log::WriteLog(Substitute(options.out_path, run.name), *result.log);
-          if (e.empty() && !options.summary_path.empty()) {
-            e = WriteOutput(Substitute(options.summary_path, run.name), SummaryJson(result.summary, run.name).dump(2) + "\n",
-                            "a JSON file");
-          }
-          if (e.empty()) {
-            std::lock_guard<std::mutex> lock(report);
-            const std::vector<std::string>& warnings = result.summary.warnings;
-            const std::string more = warnings.size() > 1 ? " (and " + std::to_string(warnings.size() - 1) +
-                                                               " more warnings: --summary lists them)"
-                                                         : "";
-            std::fprintf(stderr, "pneumo rollout: %s: %.2f s simulated, real-time factor %.2f%s%s%s\n", run.name.c_str(),
-                         result.summary.simulated_s, result.summary.real_time_factor, warnings.empty() ? "" : "; warning: ",
-                         warnings.empty() ? "" : warnings.front().c_str(), more.c_str());
-          }
-        }
-      }
-      errors[i] = e.empty() ? "" : run.name + ": " + e;
-      if (!single) {
-        std::lock_guard<std::mutex> lock(report);
-        std::fprintf(stderr, "pneumo rollout: %zu of %zu runs done\n", ++done, runs.size());
+        if (!e.empty()) break;
       }
     }
-  };
-  const int jobs = std::max(1, std::min<int>(options.jobs, static_cast<int>(runs.size())));
-  std::vector<std::thread> threads;
-  for (int j = 1; j < jobs; ++j) threads.emplace_back(worker);
-  worker();
-  for (std::thread& t : threads) t.join();
+    if (e.empty()) {
+      ClosedLoopOptions o = base;
+      o.seed = run.seed;
+      if (single) o.progress = [&](double f) { bar(f); };
+      std::unique_ptr<FrameWriter> frames;
+      if (!options.frames_dir.empty()) {
+        FrameOptions frame_options;
+        frame_options.dir = options.frames_dir;
+        frame_options.fps = options.fps;
+        frame_options.width = options.width, frame_options.height = options.height;
+        frame_options.camera = options.camera;
+        frames = FrameWriter::Create(copy.get(), frame_options, &e);
+        if (frames) o.observer = [&](const mjData* d) { return frames->Offer(d); };
+      }
+      ClosedLoopResult result = e.empty() ? RunClosedLoop(copy.get(), o) : ClosedLoopResult{};
+      if (e.empty() && result.log && frames) {
+        e = frames->Finish();
+        if (e.empty()) {
+          std::lock_guard<std::mutex> lock(report);
+          std::fprintf(stderr, "pneumo rollout: wrote %d frames to %s%s%s\n", frames->frames_written(),
+                       options.frames_dir.c_str(), frames->video_path().empty() ? "" : " and ",
+                       frames->video_path().c_str());
+        }
+      }
+      if (!e.empty()) {
+        // nothing more to do for this run
+      } else if (!result.log) {
+        e = result.error;
+      } else {
+        result.log->comments.insert(result.log->comments.begin(), "model: " + options.model_path);
+        result.log->comments.push_back("run " + run.name);
+        e = log::WriteLog(Substitute(options.out_path, run.name), *result.log);
+        if (e.empty() && !options.summary_path.empty()) {
+          e = WriteOutput(Substitute(options.summary_path, run.name), SummaryJson(result.summary, run.name).dump(2) + "\n",
+                          "a JSON file");
+        }
+        if (e.empty()) {
+          std::lock_guard<std::mutex> lock(report);
+          const std::vector<std::string>& warnings = result.summary.warnings;
+          const std::string more = warnings.size() > 1 ? " (and " + std::to_string(warnings.size() - 1) +
+                                                             " more warnings: --summary lists them)"
+                                                       : "";
+          std::fprintf(stderr, "pneumo rollout: %s: %.2f s simulated, real-time factor %.2f%s%s%s\n", run.name.c_str(),
+                       result.summary.simulated_s, result.summary.real_time_factor, warnings.empty() ? "" : "; warning: ",
+                       warnings.empty() ? "" : warnings.front().c_str(), more.c_str());
+        }
+      }
+    }
+    errors[i] = e.empty() ? "" : run.name + ": " + e;
+    if (!single) {
+      std::lock_guard<std::mutex> lock(report);
+      std::fprintf(stderr, "pneumo rollout: %zu of %zu runs done\n", ++done, runs.size());
+    }
+  });
   Detach(model.get());
   int status = 0;
   for (const std::string& e : errors) {

@@ -6,7 +6,7 @@
 
 #include <ceres/ceres.h>
 
-#include "identification/parallel_for.h"
+#include "parallel_for.h"
 
 namespace pneumatic::identification {
 namespace {

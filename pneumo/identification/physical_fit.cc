@@ -13,7 +13,7 @@
 
 #include <ceres/ceres.h>
 
-#include "identification/parallel_for.h"
+#include "parallel_for.h"
 #include "pneumatic/pneumatic.h"
 #include "rollout.h"
 

@@ -1,8 +1,8 @@
-// Work shared over threads: f(i) for i = 0..n-1, each index taken by the next free worker. Each f(i)
-// must depend on i alone (and write only its own result), so the results are the same whatever
-// `threads`.
-#ifndef PNEUMATIC_IDENTIFICATION_PARALLEL_FOR_H_
-#define PNEUMATIC_IDENTIFICATION_PARALLEL_FOR_H_
+// Work shared over threads: f(i) for i = 0..n-1, each index taken by the next free worker (the
+// identification's fits, pneumo rollout's runs). Each f(i) must depend on i alone (and write only
+// its own result), so the results are the same whatever `threads`.
+#ifndef PNEUMATIC_PARALLEL_FOR_H_
+#define PNEUMATIC_PARALLEL_FOR_H_
 
 #include <algorithm>
 #include <atomic>
@@ -10,7 +10,7 @@
 #include <thread>
 #include <vector>
 
-namespace pneumatic::identification {
+namespace pneumatic {
 
 // runs f(0) ... f(n - 1) on min(threads, n) threads (threads < 1: 1), the calling one among them
 template <class F>
@@ -26,6 +26,6 @@ void ParallelFor(std::size_t n, int threads, F f) {
   for (std::thread& t : pool) t.join();
 }
 
-}  // namespace pneumatic::identification
+}  // namespace pneumatic
 
-#endif  // PNEUMATIC_IDENTIFICATION_PARALLEL_FOR_H_
+#endif  // PNEUMATIC_PARALLEL_FOR_H_
