@@ -19,6 +19,7 @@
 #include <CLI/CLI.hpp>
 #include <mujoco/mujoco.h>
 
+#include "controller_config.h"
 #include "diagnose_command.h"
 #include "generate.h"
 #include "identify_command.h"
@@ -128,6 +129,14 @@ int RunInfo(const std::string& model_path) {
     for (const auto& [signal, id] : c.command_actuators) std::printf(" %s.%s", c.name.c_str(), signal.c_str());
     std::printf("\n  measured: %s.p_P %s.p_N %s.x %s.v %s.p_S\n", c.name.c_str(), c.name.c_str(), c.name.c_str(),
                 c.name.c_str(), c.name.c_str());
+  }
+  // the controllers' configurations the model carries (pneumo rollout --controller NAME uses them)
+  const std::string prefix = pneumatic::kModelControllerConfigPrefix;
+  for (int i = 0; i < m->ntext; ++i) {
+    const std::string name = m->names + m->name_textadr[i];
+    if (name.rfind(prefix, 0) != 0) continue;
+    std::printf("controller %s: configuration carried in <text name=\"%s\">: %s\n", name.substr(prefix.size()).c_str(),
+                name.c_str(), m->text_data + m->text_adr[i]);
   }
   return 0;
 }

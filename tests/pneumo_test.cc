@@ -29,6 +29,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using ::testing::Not;
 using ::testing::StartsWith;
 using testing::AttachedModel;
 using testing::MujocoTest;
@@ -702,6 +703,16 @@ TEST_F(PneumoBinaryTest, InfoListsTheCommandOfTheProportionalRig) {
   EXPECT_EQ(run.exit_code, 0) << run.err;
   EXPECT_THAT(run.out, HasSubstr("commands: cyl.u\n"));
   EXPECT_THAT(run.out, HasSubstr("p_supply 500000 Pa"));
+}
+
+// the humanoid carries its PID gains (<text name="pneumo:controller:pid">): info shows them
+TEST_F(PneumoBinaryTest, InfoShowsTheControllerConfigurationTheModelCarries) {
+  Outcome run = Pneumo("info " + Quote(ShippedModel("humanoid_pneumatic.xml")));
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_THAT(run.out, HasSubstr("36 pneumatic cylinders"));
+  EXPECT_THAT(run.out, HasSubstr("\ncontroller pid: configuration carried in <text name=\"pneumo:controller:pid\">: "
+                                 "{\"bandwidth\": 8, \"pressure_margin\": 30000,"));
+  EXPECT_THAT(Pneumo("info " + Quote(ShippedModel("rig_onoff.xml"))).out, Not(HasSubstr("controller")));
 }
 
 constexpr char kOnOffLog[] =
