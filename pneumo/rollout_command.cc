@@ -2,6 +2,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <memory>
@@ -106,6 +107,13 @@ std::string ReadVariations(const std::string& path, std::vector<Variation>* out)
       return path + ": every variation needs \"name\" (text) and \"set\" ({\"cyl:key\": number})";
     }
     Variation v{item["name"].get<std::string>(), {}};
+    // the name goes into the output file names ({run}): a plain, unique file name part
+    if (v.name.empty() || v.name.find_first_of("/\\") != std::string::npos || v.name == "." || v.name == "..") {
+      return path + ": variation name '" + v.name + "' must be a non-empty file name part, without '/'";
+    }
+    for (const Variation& earlier : *out) {
+      if (earlier.name == v.name) return path + ": two variations are named '" + v.name + "' (their outputs would collide)";
+    }
     for (const auto& [key, value] : item["set"].items()) {
       if (!value.is_number()) return path + ": variation '" + v.name + "': '" + key + "' must be a number";
       v.parameters.emplace_back(key, value.get<double>());
@@ -219,6 +227,12 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
   }
 
   std::vector<Run> runs;
+  for (size_t i = 0; i < options.seeds.size(); ++i) {
+    if (std::find(options.seeds.begin(), options.seeds.begin() + static_cast<long>(i), options.seeds[i]) !=
+        options.seeds.begin() + static_cast<long>(i)) {
+      return Fail("--seed " + std::to_string(options.seeds[i]) + " is given twice (the two runs would write the same files)");
+    }
+  }
   for (std::uint64_t seed : options.seeds) {
     if (variations.empty()) runs.push_back({"seed" + std::to_string(seed), seed, nullptr});
     for (const Variation& v : variations) runs.push_back({v.name + "-seed" + std::to_string(seed), seed, &v});

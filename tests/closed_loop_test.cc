@@ -680,6 +680,30 @@ TEST(ClosedLoopCommand, JobsDoNotChangeTheLogs) {
   fs::remove_all(dir);
 }
 
+// Every run writes its own files: a seed given twice, two variations of one name, or a name that is not
+// a plain file name part ('/' would write elsewhere) is refused before anything runs, and nothing is written
+TEST(ClosedLoopCommand, RefusesRunsThatWouldWriteTheSameFiles) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("closed_loop_names_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const std::string rig = Quote(ShippedModel("rig_per_chamber.xml"));
+  const std::string out = " --duration 0.1 --out " + Quote((dir / "{run}.csv").string());
+  std::string err;
+  EXPECT_EQ(Pneumo("rollout " + rig + " --controller pid --seed 1 --seed 2 --seed 1 --jobs 2" + out, &err), 1);
+  EXPECT_THAT(err, HasSubstr("--seed 1 is given twice"));
+  const std::pair<const char*, const char*> cases[] = {
+      {R"([{"name": "a", "set": {"cyl:dead_volume": 3e-6}}, {"name": "a", "set": {"cyl:dead_volume": 4e-6}}])",
+       "two variations are named 'a'"},
+      {R"([{"name": "../a", "set": {}}])", "variation name '../a' must be a non-empty file name part"},
+      {R"([{"name": "", "set": {}}])", "variation name '' must be a non-empty file name part"}};
+  for (const auto& [variations, message] : cases) {
+    std::ofstream((dir / "variations.json").string()) << variations;
+    EXPECT_EQ(Pneumo("rollout " + rig + " --controller pid --variations " + Quote((dir / "variations.json").string()) + out, &err), 1);
+    EXPECT_THAT(err, HasSubstr(message));
+  }
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), 1) << "only variations.json";
+  fs::remove_all(dir);
+}
+
 // A model carries its controller's configuration as <text name="pneumo:controller:pid" data='{...}'>:
 // without --controller-config the rollout runs on it (the same bytes as the same JSON given as a file,
 // other bytes than the defaults), --controller-config replaces it, and a bad key in it is refused,
