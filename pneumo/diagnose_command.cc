@@ -237,6 +237,13 @@ int RunDiagnose(const DiagnoseCommandOptions& options) {
     std::fprintf(stderr, "pneumo diagnose: %s\n", message.c_str());
     return 1;
   };
+  // the report's folder, checked before the diagnosis (a minute or more) rather than after
+  if (!options.report_dir.empty()) {
+    std::error_code ec;
+    if (std::filesystem::exists(options.report_dir, ec) && !std::filesystem::is_directory(options.report_dir, ec)) {
+      return fail(options.report_dir + ": exists and is not a directory");
+    }
+  }
   log::ReadOptions read;
   log::ReadResult train = log::ReadLog(options.train_path, read);
   if (!train.log) return fail(train.error);

@@ -325,6 +325,13 @@ int RunIdentify(const IdentifyOptions& options) {
     return Fail("--write-identified-model needs the parametric fit");
   }
   if (options.write_model_path.size() && !options.physical) return Fail("--write-model needs the physical fit");
+  // the outputs, checked before the fits (minutes on a large model) rather than after
+  for (const auto& [path, kind] : {std::pair{options.out_path, "a JSON file"}, std::pair{options.plot_path, "a PNG image"},
+                                   std::pair{options.write_model_path, "a model file"},
+                                   std::pair{options.write_identified_model_path, "a model file"}}) {
+    if (path.empty()) continue;
+    if (std::string e = CheckOutputPath(path, kind); !e.empty()) return Fail(e);
+  }
   std::string error;
   ModelPtr model = LoadAttached(options.model_path, &error);
   if (!model) return Fail(error);

@@ -24,6 +24,7 @@
 #include "generate.h"
 #include "identify_command.h"
 #include "log_csv.h"
+#include "output_file.h"
 #include "pneumatic/pneumatic.h"
 #include "render_command.h"
 #include "reproduce_hodgson2012.h"
@@ -63,6 +64,7 @@ std::string Load(const std::string& path, AttachedModel* out) {
 int RunRollout(const std::string& model_path, const std::string& commands_path, const std::string& out_path,
                bool duration_given, double duration, double period, const std::vector<std::string>& sets,
                bool follow_motion) {
+  if (std::string e = pneumatic::CheckOutputPath(out_path, "a log file"); !e.empty()) return Fail(e);
   AttachedModel model;
   if (std::string e = Load(model_path, &model); !e.empty()) return Fail(e);
   const mjModel* m = model.model;
@@ -104,6 +106,7 @@ int RunRollout(const std::string& model_path, const std::string& commands_path, 
 }
 
 int RunGenerate(const std::string& model_path, const std::string& out_path, const pneumatic::GenerateOptions& options) {
+  if (std::string e = pneumatic::CheckOutputPath(out_path, "a log file"); !e.empty()) return Fail(e);
   AttachedModel model;
   if (std::string e = Load(model_path, &model); !e.empty()) return Fail(e);
   auto start = std::chrono::steady_clock::now();

@@ -132,4 +132,23 @@ std::string WriteOutput(const std::string& path, std::string_view text, const st
   return WriteOutput(path, [text](const std::function<bool(std::string_view)>& emit) { return emit(text); }, kind);
 }
 
+std::string CheckOutputPath(const std::string& path, const std::string& kind) {
+  if (path == "-") return "";
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (ec && status.type() != fs::file_type::not_found) {
+    return path + ": cannot examine the output: " + ec.message();
+  }
+  if (fs::is_directory(status)) return path + ": is a directory, expected " + kind;
+  if (fs::exists(status) && (!fs::is_regular_file(status) || IsSystemPath(path))) return "";
+  // a regular file or a new one: WriteReplacing creates its temporary in the target's directory
+  const bool linked = fs::exists(status) && fs::is_symlink(fs::symlink_status(path, ec));
+  const fs::path target = linked ? fs::canonical(path, ec) : fs::path(path);
+  const fs::path directory = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  if (::access(directory.c_str(), W_OK | X_OK) != 0) {
+    return path + ": cannot create a temporary file in " + directory.string() + ": " + Reason(errno);
+  }
+  return "";
+}
+
 }  // namespace pneumatic

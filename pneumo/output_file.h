@@ -30,6 +30,12 @@ using TextSource = std::function<bool(const std::function<bool(std::string_view)
 std::string WriteOutput(const std::string& path, const TextSource& source, const std::string& kind);
 std::string WriteOutput(const std::string& path, std::string_view text, const std::string& kind);
 
+// Checked before long work, so that a run is not lost to its output path at the end: "" if
+// WriteOutput may write `path` ("-", a device, an existing or a new file in an existing directory
+// it may write to), else the message it would give (a directory; no directory to create the file
+// in). Writing can still fail later (a full disk).
+std::string CheckOutputPath(const std::string& path, const std::string& kind);
+
 }  // namespace pneumatic
 
 #endif  // PNEUMATIC_OUTPUT_FILE_H_

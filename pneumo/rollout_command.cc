@@ -245,6 +245,13 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
   if (!options.frames_dir.empty() && runs.size() > 1) {
     return Fail("--frames renders one run: give one seed and no variations");
   }
+  // every run's outputs, checked before any runs rather than after
+  for (const Run& run : runs) {
+    if (std::string e = CheckOutputPath(Substitute(options.out_path, run.name), "a log file"); !e.empty()) return Fail(e);
+    if (!options.summary_path.empty()) {
+      if (std::string e = CheckOutputPath(Substitute(options.summary_path, run.name), "a JSON file"); !e.empty()) return Fail(e);
+    }
+  }
   // each run on its own copy of the model; workers take runs in order, outputs are per run
   size_t done = 0;  // runs finished (counted under `report`)
   std::mutex report;

@@ -1,6 +1,7 @@
 // Tests of the log reader and writer against shared/spec/log_format.md.
 
 #include "log_csv.h"
+#include "output_file.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -575,6 +576,22 @@ TEST_F(LogFileTest, WriteIntoUnwritableDirectoryFailsAndCreatesNothing) {
   EXPECT_EQ(error,
             path + ": cannot create a temporary file in " + locked + ": " + std::strerror(EACCES));
   EXPECT_TRUE(fs::is_empty(locked));
+}
+
+// CheckOutputPath, run before long work, refuses what the write would refuse, with the write's own
+// message, and lets through what it would write (a new or existing file, a device, standard output)
+TEST_F(LogFileTest, OutputCheckGivesTheWritesOwnVerdictBeforehand) {
+  for (const std::string& bad : {dir_.string(), Path("missing/dir/out.csv")}) {
+    SCOPED_TRACE(bad);
+    const std::string checked = CheckOutputPath(bad, "a log file");
+    EXPECT_NE(checked, "");
+    EXPECT_EQ(checked, WriteLog(bad, SmallLog()));
+  }
+  for (const std::string& good : {Path("new.csv"), WriteText("old.csv", "x"), std::string("/dev/null"), std::string("-")}) {
+    EXPECT_EQ(CheckOutputPath(good, "a log file"), "") << good;
+  }
+  EXPECT_EQ(ReadText(Path("old.csv")), "x") << "checking writes nothing";
+  EXPECT_EQ(Entries(dir_), std::vector<std::string>{"old.csv"});
 }
 
 TEST_F(LogFileTest, ConcurrentWritersOfOneTargetBothSucceedAndLeaveOneCompleteLog) {

@@ -705,6 +705,37 @@ TEST_F(PneumoBinaryTest, InfoListsTheCommandOfTheProportionalRig) {
   EXPECT_THAT(run.out, HasSubstr("p_supply 500000 Pa"));
 }
 
+// A command that runs for long refuses an output it could not write before it starts, not after: each
+// here would take minutes (1000 s of simulation, fits on it), and fails with the write's message and no
+// sign of having run (no progress, no "wrote")
+TEST_F(PneumoBinaryTest, LongCommandsRefuseAnOutputTheyCouldNotWriteBeforeRunning) {
+  const std::string rig = Quote(ShippedModel("rig_per_chamber.xml"));
+  const std::string missing = Path("missing/out.csv"), folder = dir_.string();
+  WriteText(Path("train.csv"), "time,cyl.uP,cyl.uN,cyl.p_P,cyl.p_N,cyl.x\n0,5,5,1e5,1e5,0\n0.01,5,5,1e5,1e5,0\n");
+  WriteText(Path("file"), "x");
+  const std::pair<std::string, std::string> cases[] = {
+      {"rollout " + rig + " --controller pid --duration 1000 --out " + Quote(missing), missing + ": cannot create a temporary file in"},
+      {"rollout " + rig + " --controller pid --duration 1000 --seed 1 --seed 2 --out " + Quote(Path("{run}.csv")) +
+           " --summary " + Quote(Path("missing/{run}.json")),
+       Path("missing/seed1.json") + ": cannot create a temporary file in"},
+      {"rollout " + rig + " --duration 1000 --set cyl.uP=5 --set cyl.uN=5 --out " + Quote(folder), folder + ": is a directory"},
+      {"generate " + rig + " --duration 1000 --seed 1 --out " + Quote(missing), missing + ": cannot create a temporary file in"},
+      {"identify " + rig + " " + Quote(Path("train.csv")) + " --out " + Quote(folder), folder + ": is a directory, expected a JSON file"},
+      {"identify " + rig + " " + Quote(Path("train.csv")) + " --out " + Quote(Path("p.json")) + " --write-model " +
+           Quote(Path("missing/m.xml")),
+       Path("missing/m.xml") + ": cannot create a temporary file in"},
+      {"diagnose " + rig + " " + Quote(Path("train.csv")) + " --report " + Quote(Path("file")), Path("file") + ": exists and is not a directory"}};
+  for (const auto& [args, message] : cases) {
+    SCOPED_TRACE(args);
+    Outcome run = Pneumo(args);
+    EXPECT_EQ(run.exit_code, 1);
+    EXPECT_THAT(run.err, HasSubstr(message));
+    for (const char* progress : {"%", "simulated", "wrote", "fitting", "gap"}) EXPECT_THAT(run.err, Not(HasSubstr(progress)));
+  }
+  EXPECT_FALSE(fs::exists(Path("missing")));
+  EXPECT_FALSE(fs::exists(Path("p.json")));
+}
+
 // the humanoid carries its PID gains (<text name="pneumo:controller:pid">): info shows them
 TEST_F(PneumoBinaryTest, InfoShowsTheControllerConfigurationTheModelCarries) {
   Outcome run = Pneumo("info " + Quote(ShippedModel("humanoid_pneumatic.xml")));
