@@ -215,7 +215,8 @@ int main(int argc, char** argv) {
   rollout->add_option("--variations", closed.variations_path,
                       "JSON [{\"name\": ..., \"set\": {\"cyl:key\": value}}]: one run per variation and seed");
   rollout->add_option("--summary", closed.summary_path,
-                      "JSON summary: steps, real-time factor, tracking errors, pressure ranges, warnings");
+                      "JSON summary: the controller and where its configuration came from, steps, real-time factor, "
+                      "tracking errors, pressure ranges, warnings");
   rollout->add_option("--jobs", closed.jobs, "runs at once, each on its own copy of the model")->check(CLI::Range(1, 256));
   rollout->add_option("--frames", closed.frames_dir,
                       "closed loop: write rendered frames DIR/frame_00000.png... (and DIR/video.mp4 with ffmpeg)");

@@ -123,7 +123,8 @@ std::string ReadVariations(const std::string& path, std::vector<Variation>* out)
   return "";
 }
 
-json SummaryJson(const ClosedLoopSummary& s, const std::string& run) {
+// `controller`: its name and where its configuration came from (a file, the model, its defaults)
+json SummaryJson(const ClosedLoopSummary& s, const std::string& run, const json& controller) {
   json cylinders = json::object();
   for (const CylinderSummary& c : s.cylinders) {
     cylinders[c.name] = {{"rms_tracking_error", c.rms_tracking_error},
@@ -133,6 +134,7 @@ json SummaryJson(const ClosedLoopSummary& s, const std::string& run) {
                          {"within_supply_range", c.within_supply_range}};
   }
   return {{"run", run},
+          {"controller", controller},
           {"steps", s.steps},
           {"simulated_s", s.simulated_s},
           {"wall_s", s.wall_s},
@@ -211,6 +213,8 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
              !e.empty()) {
     return Fail(e);
   }
+  const json controller = {{"name", options.controller},
+                           {"configuration", configured ? config_source : "the controller's defaults"}};
   std::optional<log::Log> reference;
   if (!options.reference_path.empty()) {
     log::ReadOptions read;
@@ -306,7 +310,7 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
         result.log->comments.push_back("run " + run.name);
         e = log::WriteLog(Substitute(options.out_path, run.name), *result.log);
         if (e.empty() && !options.summary_path.empty()) {
-          e = WriteOutput(Substitute(options.summary_path, run.name), SummaryJson(result.summary, run.name).dump(2) + "\n",
+          e = WriteOutput(Substitute(options.summary_path, run.name), SummaryJson(result.summary, run.name, controller).dump(2) + "\n",
                           "a JSON file");
         }
         if (e.empty()) {

@@ -645,6 +645,7 @@ TEST(ClosedLoopCommand, JobsDoNotChangeTheLogs) {
   }
   nlohmann::json s = nlohmann::json::parse(ReadText((dir / "j2_seed1.json").string()));
   for (const char* key : {"steps", "real_time_factor", "cylinders", "warnings"}) EXPECT_TRUE(s.contains(key)) << key;
+  EXPECT_EQ(s["controller"], (nlohmann::json{{"name", "pid"}, {"configuration", "the controller's defaults"}}));
   EXPECT_EQ(s["steps"].get<long>(), 5000);
   // several runs need {run} in the output names; a gains file with an unknown key is refused, naming it
   EXPECT_EQ(Pneumo("rollout " + Quote(ShippedModel("rig_per_chamber.xml")) +
@@ -731,8 +732,12 @@ TEST(ClosedLoopCommand, UsesTheConfigurationTheModelCarries) {
         << err;
     return ReadText((dir / out).string());
   };
-  const std::string carried = run(carrying, "", "carried.csv");
+  const std::string carried = run(carrying, "--summary " + Quote((dir / "carried.json").string()), "carried.csv");
   EXPECT_THAT(err, HasSubstr("pid configuration from " + carrying + ": the model's custom text 'pneumo:controller:pid'"));
+  // the summary says which gains the run had
+  const nlohmann::json summary = nlohmann::json::parse(ReadText((dir / "carried.json").string()));
+  EXPECT_EQ(summary["controller"]["name"], "pid");
+  EXPECT_EQ(summary["controller"]["configuration"], carrying + ": the model's custom text 'pneumo:controller:pid'");
   const std::string from_file = run(ShippedModel("rig_per_chamber.xml"), "--controller-config " + Quote((dir / "gains.json").string()), "file.csv");
   const std::string defaults = run(ShippedModel("rig_per_chamber.xml"), "", "defaults.csv");
   const std::string replaced = run(carrying, "--controller-config " + Quote((dir / "empty.json").string()), "replaced.csv");
