@@ -162,10 +162,17 @@ std::string Html(const dg::Diagnosis& d, const DiagnoseCommandOptions& o) {
   return h.str();
 }
 
+// "" if the report may go into `dir` (a folder, or nothing there yet), else why not
+std::string ReportDirProblem(const std::string& dir) {
+  std::error_code ec;
+  if (std::filesystem::exists(dir, ec) && !std::filesystem::is_directory(dir, ec)) return dir + ": exists and is not a directory";
+  return "";
+}
+
 std::string WriteReport(const dg::Diagnosis& d, const nlohmann::json& j, const DiagnoseCommandOptions& o) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  if (fs::exists(o.report_dir, ec) && !fs::is_directory(o.report_dir, ec)) return o.report_dir + ": exists and is not a directory";
+  if (std::string e = ReportDirProblem(o.report_dir); !e.empty()) return e;
   fs::create_directories(o.report_dir, ec);
   if (ec) return o.report_dir + ": " + ec.message();
   if (std::string e = WriteOutput(o.report_dir + "/diagnosis.json", j.dump(2) + "\n", "a JSON file"); !e.empty()) return e;
@@ -239,10 +246,7 @@ int RunDiagnose(const DiagnoseCommandOptions& options) {
   };
   // the report's folder, checked before the diagnosis (a minute or more) rather than after
   if (!options.report_dir.empty()) {
-    std::error_code ec;
-    if (std::filesystem::exists(options.report_dir, ec) && !std::filesystem::is_directory(options.report_dir, ec)) {
-      return fail(options.report_dir + ": exists and is not a directory");
-    }
+    if (std::string e = ReportDirProblem(options.report_dir); !e.empty()) return fail(e);
   }
   log::ReadOptions read;
   log::ReadResult train = log::ReadLog(options.train_path, read);

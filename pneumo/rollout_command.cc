@@ -2,11 +2,11 @@
 
 #include <unistd.h>
 
-#include <algorithm>
 #include <cstdio>
 #include <fstream>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <sstream>
 
 #include <mujoco/mujoco.h>
@@ -231,10 +231,10 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
   }
 
   std::vector<Run> runs;
-  for (size_t i = 0; i < options.seeds.size(); ++i) {
-    if (std::find(options.seeds.begin(), options.seeds.begin() + static_cast<long>(i), options.seeds[i]) !=
-        options.seeds.begin() + static_cast<long>(i)) {
-      return Fail("--seed " + std::to_string(options.seeds[i]) + " is given twice (the two runs would write the same files)");
+  std::set<std::uint64_t> seeds;
+  for (std::uint64_t seed : options.seeds) {
+    if (!seeds.insert(seed).second) {
+      return Fail("--seed " + std::to_string(seed) + " is given twice (the two runs would write the same files)");
     }
   }
   for (std::uint64_t seed : options.seeds) {
