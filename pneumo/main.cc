@@ -183,7 +183,8 @@ int main(int argc, char** argv) {
   rollout->add_option("model", model_path, "MJCF model with pneumatic cylinders")->required();
   rollout->add_option("--commands", commands_path, "log (shared/spec/log_format.md) whose command columns are replayed");
   rollout->add_option("--out", out_path, "simulated log to write")->required();
-  rollout->add_option("--duration", duration, "seconds to simulate (the whole log by default)");
+  rollout->add_option("--duration", duration,
+                      "seconds to simulate (default: the whole --commands log; with --controller, the --reference's span)");
   rollout->add_option("--period", period, "row period without a command log, s (default 1 ms)");
   rollout->add_option("--set", sets, "constant command, e.g. --set cyl.u=2.5 (repeatable)");
   bool follow_motion = false;
@@ -348,9 +349,12 @@ int main(int argc, char** argv) {
     if (!commands_path.empty() || !sets.empty() || follow_motion) {
       return Fail("--controller runs closed loop: it does not take --commands, --set or --follow-motion");
     }
-    if (rollout->count("--duration") == 0) return Fail("--controller needs --duration");
+    // without --duration, a reference's span (RunClosedLoopCommand); holding a pose has no length of its own
+    if (rollout->count("--duration") == 0 && closed.reference_path.empty()) {
+      return Fail("--controller needs --duration (or a --reference, whose span it then runs)");
+    }
     closed.model_path = model_path;
-    closed.duration = duration;
+    closed.duration = rollout->count("--duration") > 0 ? duration : 0;
     closed.out_path = out_path;
     if (closed.seeds.empty()) closed.seeds = {1};
     return pneumatic::RunClosedLoopCommand(closed);
@@ -376,7 +380,7 @@ int main(int argc, char** argv) {
     if (render->count("--time")) render_options.time = render_time;
     return pneumatic::RunRender(render_options);
   }
-    if (*reproduce) {
+  if (*reproduce) {
     std::string error;
     nlohmann::json result =
         reproduce_name == "laib2021"       ? pneumatic::ReproduceLaib2021(PNEUMATIC_MODELS_DIR, reproduce_out, &error)
@@ -386,7 +390,7 @@ int main(int argc, char** argv) {
     std::printf("%s\n", result.dump(2).c_str());
     return 0;
   }
-    if (*info) return RunInfo(model_path);
+  if (*info) return RunInfo(model_path);
   if (*params) return RunParams(markdown);
   return 2;
 }

@@ -225,6 +225,16 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
     reference = std::move(r.log);
     base.reference = &*reference;
   }
+  if (options.duration == 0) {
+    if (!reference) return Fail("give --duration, or a --reference whose span the run takes");
+    base.duration = reference->time.back();
+    char span[32];
+    std::snprintf(span, sizeof span, "%g", base.duration);
+    if (!(base.duration > 0)) {
+      return Fail(options.reference_path + ": its last row is at t = " + span + " s, not after the run's start at 0 s: give --duration");
+    }
+    std::fprintf(stderr, "pneumo rollout: running the reference's %s s (--duration sets another length)\n", span);
+  }
   std::vector<Variation> variations;
   if (!options.variations_path.empty()) {
     if (std::string e = ReadVariations(options.variations_path, &variations); !e.empty()) return Fail(e);
@@ -261,7 +271,7 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
   std::mutex report;
   std::vector<std::string> errors(runs.size());
   const bool single = runs.size() == 1;
-  ProgressBar bar(options.duration);
+  ProgressBar bar(base.duration);
   ParallelFor(runs.size(), options.jobs, [&](size_t i) {
     const Run& run = runs[i];
     std::unique_ptr<mjModel, void (*)(mjModel*)> copy(mj_copyModel(nullptr, model.get()), mj_deleteModel);

@@ -14,7 +14,7 @@ struct ClosedLoopCommandOptions {
   std::string controller = "pid";       // pid or none
   std::string controller_config_path;   // optional JSON of PositionPidGains (see ReadControllerConfig)
   std::string reference_path;           // optional log with <cyl>.ref columns
-  double duration = 0;                  // s
+  double duration = 0;                  // s; 0: the reference's span, from t = 0 to its last row
   double control_rate = 100;            // Hz
   std::vector<std::uint64_t> seeds = {1};
   double noise_pressure = 0, noise_position = 0;

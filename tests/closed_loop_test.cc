@@ -705,6 +705,39 @@ TEST(ClosedLoopCommand, RefusesRunsThatWouldWriteTheSameFiles) {
   fs::remove_all(dir);
 }
 
+// Without --duration a run follows its --reference to the end: its log is the bytes of the same run
+// with --duration set to the reference's last time (0.3 s here); holding a pose has no length of its
+// own, and a reference that ends at t = 0 none either: each is refused, naming what to give
+TEST(ClosedLoopCommand, RunsTheReferencesSpanWithoutADuration) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("closed_loop_span_" + std::to_string(getpid()));
+  fs::create_directories(dir);
+  const std::string rig = Quote(ShippedModel("rig_per_chamber.xml"));
+  std::ofstream((dir / "ref.csv").string()) << "time,cyl.ref\n0,0\n0.1,0.01\n0.3,0.02\n";
+  const std::string reference = " --reference " + Quote((dir / "ref.csv").string());
+  std::string err;
+  ASSERT_EQ(Pneumo("rollout " + rig + " --controller pid" + reference + " --out " + Quote((dir / "span.csv").string()), &err), 0)
+      << err;
+  EXPECT_THAT(err, HasSubstr("running the reference's 0.3 s"));
+  ASSERT_EQ(Pneumo("rollout " + rig + " --controller pid" + reference + " --duration 0.3 --out " +
+                       Quote((dir / "given.csv").string()),
+                   &err),
+            0)
+      << err;
+  const std::string span = ReadText((dir / "span.csv").string());
+  EXPECT_FALSE(span.empty());
+  EXPECT_TRUE(span == ReadText((dir / "given.csv").string()));
+  EXPECT_EQ(Pneumo("rollout " + rig + " --controller pid --out " + Quote((dir / "x.csv").string()), &err), 1);
+  EXPECT_THAT(err, HasSubstr("--controller needs --duration (or a --reference"));
+  std::ofstream((dir / "ref0.csv").string()) << "time,cyl.ref\n0,0\n";
+  EXPECT_EQ(Pneumo("rollout " + rig + " --controller pid --reference " + Quote((dir / "ref0.csv").string()) + " --out " +
+                       Quote((dir / "x.csv").string()),
+                   &err),
+            1);
+  EXPECT_THAT(err, HasSubstr("ref0.csv: its last row is at t = 0 s, not after the run's start at 0 s: give --duration"));
+  EXPECT_FALSE(fs::exists(dir / "x.csv"));
+  fs::remove_all(dir);
+}
+
 // A model carries its controller's configuration as <text name="pneumo:controller:pid" data='{...}'>:
 // without --controller-config the rollout runs on it (the same bytes as the same JSON given as a file,
 // other bytes than the defaults), --controller-config replaces it, and a bad key in it is refused,
