@@ -132,6 +132,8 @@ class Reference {
     double s = (t - time[i]) / (time[i + 1] - time[i]);
     return ref[i] + s * (ref[i + 1] - ref[i]);
   }
+  // the targets, row by row (given() only)
+  const std::vector<double>& Rows() const { return log_->values[static_cast<size_t>(column_)]; }
 
  private:
   const log::Log* log_;
@@ -331,10 +333,8 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
     summary.cylinders.push_back(s);
     // a target the piston cannot reach: x within half the stroke of mid-stroke (m, or rad for a vane)
     if (ch.reference.given()) {
-      std::string ignored;
-      const double half_stroke = GetParameter(m, ch.info.name, "stroke", &ignored).value_or(1e300) / 2;
-      const std::vector<double>& ref = options.reference->values[static_cast<size_t>(options.reference->FindColumn(ch.info.name, "ref"))];
-      const auto [low, high] = std::minmax_element(ref.begin(), ref.end());
+      const double half_stroke = ch.drive.half_stroke;
+      const auto [low, high] = std::minmax_element(ch.reference.Rows().begin(), ch.reference.Rows().end());
       if (*low < -half_stroke || *high > half_stroke) {
         char text[300];
         std::snprintf(text, sizeof(text),
