@@ -11,10 +11,12 @@
 //   mechanical  motion simulated with the chamber pressures held to the measured ones.
 //
 // The state at a window's start: measured p_P, p_N, x (through the inverse of the signal model's
-// sensors), the estimated velocity; states no sensor gives (spool, armature, gas temperature,
-// bristle) are estimated by a warm-up: the model runs the rows before the window with its
-// pressures and motion reset to the measured ones at every row, so those states follow the logged
-// commands; a line's pressure starts it at its chamber's measured one. A state far slower than the
+// sensors) and, where the window simulates the motion, the velocity fitted over the warm-up's rows
+// (the positions the model simulates from the fit's start match the measured ones best); states no
+// sensor gives (spool, armature, gas temperature, bristle) are estimated by the warm-up: the model
+// runs the rows before the window with its pressures reset to the measured ones at every row (and
+// its motion, for the pneumatic side), so those states follow the logged commands; a line's
+// pressure starts it at its chamber's measured one. A state far slower than the
 // warm-up, a supply reservoir's pressure (it sags and refills over seconds), is estimated over the
 // whole history instead: an observer runs the log that way from its first row and hands each
 // window its states at the warm-up's first row (EstimatesOverTheHistory; a gas temperature, which
