@@ -353,6 +353,7 @@ int main(int argc, char** argv) {
     if (rollout->count("--duration") == 0 && closed.reference_path.empty()) {
       return Fail("--controller needs --duration (or a --reference, whose span it then runs)");
     }
+    if (rollout->count("--duration") > 0 && !(duration > 0)) return Fail("--duration must be positive");
     closed.model_path = model_path;
     closed.duration = rollout->count("--duration") > 0 ? duration : 0;
     closed.out_path = out_path;

@@ -707,7 +707,8 @@ TEST(ClosedLoopCommand, RefusesRunsThatWouldWriteTheSameFiles) {
 
 // Without --duration a run follows its --reference to the end: its log is the bytes of the same run
 // with --duration set to the reference's last time (0.3 s here); holding a pose has no length of its
-// own, and a reference that ends at t = 0 none either: each is refused, naming what to give
+// own, and a reference that ends at t = 0 none either: each is refused, naming what to give, as is a
+// --duration of 0
 TEST(ClosedLoopCommand, RunsTheReferencesSpanWithoutADuration) {
   const fs::path dir = fs::path(::testing::TempDir()) / ("closed_loop_span_" + std::to_string(getpid()));
   fs::create_directories(dir);
@@ -734,6 +735,9 @@ TEST(ClosedLoopCommand, RunsTheReferencesSpanWithoutADuration) {
                    &err),
             1);
   EXPECT_THAT(err, HasSubstr("ref0.csv: its last row is at t = 0 s, not after the run's start at 0 s: give --duration"));
+  // a --duration of 0 is a mistake, not a request for the reference's span
+  EXPECT_EQ(Pneumo("rollout " + rig + " --controller pid" + reference + " --duration 0 --out " + Quote((dir / "x.csv").string()), &err), 1);
+  EXPECT_THAT(err, HasSubstr("--duration must be positive"));
   EXPECT_FALSE(fs::exists(dir / "x.csv"));
   fs::remove_all(dir);
 }
