@@ -349,10 +349,7 @@ int main(int argc, char** argv) {
     if (!commands_path.empty() || !sets.empty() || follow_motion) {
       return Fail("--controller runs closed loop: it does not take --commands, --set or --follow-motion");
     }
-    // without --duration, a reference's span (RunClosedLoopCommand); holding a pose has no length of its own
-    if (rollout->count("--duration") == 0 && closed.reference_path.empty()) {
-      return Fail("--controller needs --duration (or a --reference, whose span it then runs)");
-    }
+    // without --duration, the reference's span (RunClosedLoopCommand, which refuses a run with neither)
     if (rollout->count("--duration") > 0 && !(duration > 0)) return Fail("--duration must be positive");
     closed.model_path = model_path;
     closed.duration = rollout->count("--duration") > 0 ? duration : 0;

@@ -226,7 +226,8 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
     base.reference = &*reference;
   }
   if (options.duration == 0) {
-    if (!reference) return Fail("give --duration, or a --reference whose span the run takes");
+    // holding a pose has no length of its own
+    if (!reference) return Fail("--controller needs --duration (or a --reference, whose span it then runs)");
     base.duration = reference->time.back();
     char span[32];
     std::snprintf(span, sizeof span, "%g", base.duration);

@@ -60,15 +60,15 @@ class WindowRunner {
       StartLinesAtTheChambers(first);
     }
     // the warm-up; where the window simulates the motion, its rows also give the start's velocity
-    const std::string diverged = "the simulation diverged in the warm-up of the window starting at t = " + std::to_string(meas_.time[start]) + " s";
+    auto diverged = [&] { return "the simulation diverged in the warm-up of the window starting at t = " + std::to_string(meas_.time[start]) + " s"; };
     std::vector<double> velocity;
     if (kind_ == PredictionKind::kPneumatic) {
       for (int row = first; row < start; ++row) {
         StepMeasuredRow(row);
-        if (Diverged()) return diverged;
+        if (Diverged()) return diverged();
       }
     } else if (!FitStartVelocity(first, start, &velocity)) {
-      return diverged;
+      return diverged();
     }
     SetMeasuredState(start);
     for (size_t c = 0; c < velocity.size(); ++c) {
@@ -265,12 +265,11 @@ class WindowRunner {
   }
 
   void SetMeasuredState(int row) {
+    SetMeasuredPressures(row);
     mjData* d = d_.get();
     for (size_t c = 0; c < meas_.cylinders.size(); ++c) {
       const CylinderSeries& cyl = meas_.cylinders[c];
       const int base = kSignalsPerCylinder * static_cast<int>(c);
-      SetChamberPressure(m_, d, cylinders_[c], Chamber::kP, TrueValue(meas_, signals_, base + kPressureP, row));
-      SetChamberPressure(m_, d, cylinders_[c], Chamber::kN, TrueValue(meas_, signals_, base + kPressureN, row));
       const double x = TrueValue(meas_, signals_, base + kPosition, row);
       d->qpos[m_->jnt_qposadr[cyl.joint]] = (x + cyl.info.x_mid) / cyl.gear;
       d->qvel[m_->jnt_dofadr[cyl.joint]] = cyl.velocity[row] / signals_.gain[base + kPosition] / cyl.gear;
