@@ -229,6 +229,28 @@ TEST(DiagnosisCandidates, LaminarLeakRangeFollowsTheCylindersGas) {
   }
 }
 
+TEST(DiagnosisCandidates, LaminarLeakStartsFromTheOrificeFormsFitConverted) {
+  // the laminar form starts from the orifice form's fitted areas, each converted at the rate that
+  // converts the range (LaminarConductancePerArea): the seed's factor is the ratio of the two forms'
+  // bounds, path by path, and the fit that starts there skips the scans (diagnose.cc)
+  std::string error;
+  ModelPtr m = LoadEditedModel(kRigC, {}, &error);
+  ASSERT_TRUE(m) << error;
+  std::optional<Measurements> meas = PrepareMeasurements(m.get(), RigCLog(1, 1.0, 0, 1), 100, &error);
+  ASSERT_TRUE(meas) << error;
+  const std::optional<Candidate> orifice = FirstForm(m.get(), *meas, "leakage");
+  const std::optional<Candidate> laminar = RicherForm(m.get(), *meas, "leakage", "laminar leaks");
+  ASSERT_TRUE(orifice && laminar);
+  ASSERT_EQ(orifice->parameters.size(), 3u);
+  ASSERT_EQ(laminar->parameters.size(), 3u);
+  for (int i = 0; i < 3; ++i) {
+    const EffectParameter& g = laminar->parameters[i];
+    EXPECT_EQ(g.seed_from, orifice->parameters[i].name) << g.name;
+    EXPECT_DOUBLE_EQ(g.seed_factor * orifice->parameters[i].lower, g.lower) << g.name;
+    EXPECT_DOUBLE_EQ(g.seed_factor * orifice->parameters[i].upper, g.upper) << g.name;
+  }
+}
+
 // `form` fitted on a rig's 500 Hz log as the diagnosis rounds fit (the default windows: 0.2 s
 // after a 20 ms warm-up), with at most max_iterations of Levenberg-Marquardt; without the scans
 // before it where `scans` is false (a form started from its simpler forms' fits)

@@ -487,9 +487,21 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
   // hole's). The two forms are the ends of a real leak's range; where the first leads a round or is its runner-up, the
   // held-out gap tells which end is nearer. Its range is the orifice form's, converted
   // (LaminarConductancePerArea)
+  // The fit starts from the orifice form's fit, each area converted at the same rate as the range: the
+  // scan's coarse points (a decade and more apart) bracket a laminar leak poorly, since at the small
+  // pressure differences near equalisation a laminar path passes far less than an orifice of the
+  // converted area, and from them the fit could stall with a leak in its dead zone at the bottom of
+  // the range: bench_diagnose --speed at 1 kHz (a laminar leak across the piston and to the
+  // atmosphere) left 0.0382 of held-out gap with the piston's conductance at its lower bound, against
+  // the orifice form's 0.0279
   per_cylinder("leakage", "laminar leaks across the piston and to the atmosphere (flow proportional to the pressure difference)",
                [&](const CylinderSeries& cyl, Candidate* c) {
     c->parameters = LaminarLeakConductances(m, cyl);
+    const std::vector<EffectParameter> areas = OrificeLeakAreas(m, cyl);
+    for (size_t i = 0; i < c->parameters.size(); ++i) {
+      c->parameters[i].seed_from = areas[i].name;
+      c->parameters[i].seed_factor = LaminarConductancePerArea(m, cyl);
+    }
   }, true);
   // leakage, third form, a refinement: both laws on each path, a laminar conductance and an orifice
   // side by side (the project's own form). A real leak lies between the two ends, and a seal may

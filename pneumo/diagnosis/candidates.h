@@ -80,6 +80,12 @@ struct EffectParameter {
   // (its best by dIC), the fit starts at this fraction of that form's value, and without the scans
   // (a richer form that sums two simpler ones: each at half its own fit)
   double seed_fraction = 0;
+  // not empty: where a form of the same effect fitted earlier in the round has a parameter of this
+  // name (its best by dIC), the fit starts at seed_factor times that form's value, and without the
+  // scans (a form whose parameter is another's converted: a laminar leak's conductance from an
+  // orifice's area)
+  std::string seed_from;
+  double seed_factor = 0;
   // sets the value on a model (with the candidate's edits) and the signal model: "" or why not
   std::function<std::string(mjModel*, SignalModel*, double)> apply;
 };

@@ -375,21 +375,26 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
              std::find(dropped.begin(), dropped.end(), c.effect) == dropped.end() &&
              (options.effects.empty() || std::find(options.effects.begin(), options.effects.end(), c.effect) != options.effects.end());
     };
-    // c with its seeded parameters (EffectParameter::seed_fraction) started from the fit of the same
-    // name in this round's best form of the same effect; *seeded says whether any was
+    // c with its seeded parameters started from this round's best fit (by dIC) of another form of the
+    // same effect: at seed_fraction of the value of the same name, or at seed_factor times the value of
+    // the parameter named seed_from (EffectParameter); *seeded says whether any was (its fit skips the scans)
     auto seeded_from_round = [&](Candidate c, bool* seeded) {
       *seeded = false;
       for (EffectParameter& p : c.parameters) {
-        if (!(p.seed_fraction > 0)) continue;
+        const bool same_name = p.seed_fraction > 0, converted = !p.seed_from.empty() && p.seed_factor > 0;
+        if (!same_name && !converted) continue;
+        const std::string& source = same_name ? p.name : p.seed_from;
         const CandidateResult* best = nullptr;
         double value = 0;
         for (const CandidateResult& other : r.ranking) {
           if (other.effect != c.effect || std::isnan(other.delta_ic) || (best && other.delta_ic >= best->delta_ic)) continue;
           for (const ParameterResult& q : other.parameters) {
-            if (q.name == p.name) best = &other, value = q.value;
+            if (q.name == source) best = &other, value = q.value;
           }
         }
-        if (best) p.initial = std::clamp(p.seed_fraction * value, p.lower, p.upper), *seeded = true;
+        if (!best) continue;
+        p.initial = std::clamp((same_name ? p.seed_fraction : p.seed_factor) * value, p.lower, p.upper);
+        *seeded = true;
       }
       return c;
     };
