@@ -9,6 +9,7 @@
 #include "pneumatic/pneumatic.h"
 #include "random_stream.h"
 #include "rollout.h"
+#include "step_state.h"
 
 namespace pneumatic {
 namespace {
@@ -140,18 +141,6 @@ class Reference {
   int column_;
 };
 
-// the mjData arrays a closed-loop run carries from one tick to the next (ClosedLoopState::mujoco)
-std::vector<std::pair<mjtNum*, int>> CarriedArrays(const mjModel* m, mjData* d) {
-  return {{&d->time, 1},
-          {d->qpos, m->nq},
-          {d->qvel, m->nv},
-          {d->act, m->na},
-          {d->ctrl, m->nu},
-          {d->qacc_warmstart, m->nv},
-          {d->qfrc_applied, m->nv},
-          {d->xfrc_applied, 6 * m->nbody}};
-}
-
 struct Channel {
   CylinderInfo info;
   ValveDrive drive;
@@ -254,13 +243,13 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
   if (options.resume) {
     // the state as the interrupted run left it, after its last mj_step (no forward pass since)
     size_t size = 0;
-    for (const auto& [array, n] : CarriedArrays(m, d.get())) size += static_cast<size_t>(n);
+    for (const auto& [array, n] : StepStateArrays(m, d.get())) size += static_cast<size_t>(n);
     if (options.resume->mujoco.size() != size || options.resume->hold.size() != cylinders.size() ||
         options.resume->noise.size() != cylinders.size()) {
       return fail("the state to resume from is not one of this model's runs");
     }
     const double* from = options.resume->mujoco.data();
-    for (const auto& [array, n] : CarriedArrays(m, d.get())) {
+    for (const auto& [array, n] : StepStateArrays(m, d.get())) {
       std::copy(from, from + n, array);
       from += n;
     }
@@ -463,7 +452,7 @@ ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& option
     }
   }
   ClosedLoopState& state = result.final_state;
-  for (const auto& [array, n] : CarriedArrays(m, d.get())) state.mujoco.insert(state.mujoco.end(), array, array + n);
+  for (const auto& [array, n] : StepStateArrays(m, d.get())) state.mujoco.insert(state.mujoco.end(), array, array + n);
   if (controller) state.controller = controller->State();
   for (const Channel& ch : channels) {
     state.hold.push_back(ch.hold);

@@ -830,7 +830,8 @@ TEST(DiagnosisFit, RecoversALeakBetweenLaminarAndOrificeWithBothLaws) {
   for (int i = 0; i < 3; ++i) {
     ASSERT_EQ(both->parameters[i].name, orifice_form->parameters[i].name);
     ASSERT_EQ(both->parameters[3 + i].name, laminar_form->parameters[i].name);
-    EXPECT_EQ(both->parameters[i].seed_fraction, 0.5);
+    EXPECT_EQ(both->parameters[i].seed_factor, 0.5);
+    EXPECT_EQ(both->parameters[i].seed_from, "");
     both->parameters[i].initial = 0.5 * orifice.values[i];
     both->parameters[3 + i].initial = 0.5 * laminar.values[i];
   }

@@ -498,9 +498,10 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
                [&](const CylinderSeries& cyl, Candidate* c) {
     c->parameters = LaminarLeakConductances(m, cyl);
     const std::vector<EffectParameter> areas = OrificeLeakAreas(m, cyl);
+    const double per_area = LaminarConductancePerArea(m, cyl);
     for (size_t i = 0; i < c->parameters.size(); ++i) {
       c->parameters[i].seed_from = areas[i].name;
-      c->parameters[i].seed_factor = LaminarConductancePerArea(m, cyl);
+      c->parameters[i].seed_factor = per_area;
     }
   }, true);
   // leakage, third form, a refinement: both laws on each path, a laminar conductance and an orifice
@@ -509,13 +510,13 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
   // shape unexplained: rig B driven open loop, a piston leak half laminar and half an orifice, the
   // laminar form left 0.0235 against the clean log's 0.0119, and a spurious payload took part of it.
   // Six parameters would cost the scans a grid of 36 points and more, so the fit starts from the two
-  // forms above instead, each law at half its own fit (seed_fraction): the sum starts as the mean of
+  // forms above instead, each law at half its own fit (seed_factor): the sum starts as the mean of
   // two fits of the same leak
   per_cylinder("leakage", "laminar and orifice leaks side by side, across the piston and to the atmosphere",
                [&](const CylinderSeries& cyl, Candidate* c) {
     c->parameters = OrificeLeakAreas(m, cyl);
     for (EffectParameter& p : LaminarLeakConductances(m, cyl)) c->parameters.push_back(p);
-    for (EffectParameter& p : c->parameters) p.seed_fraction = 0.5;
+    for (EffectParameter& p : c->parameters) p.seed_factor = 0.5;
   }, true);
   // heat_transfer: the gas temperature as a state (the energy equation of an open chamber with wall
   // heat, Richer and Hurmuzlu 2000; plugin/README.md, "heat_transfer") with one wall heat conductance

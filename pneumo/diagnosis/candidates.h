@@ -76,16 +76,13 @@ struct EffectParameter {
   // (FitOptions: the grid scan), for a cost with local minima about that far apart, which a
   // Levenberg-Marquardt start outside the true one's basin cannot leave
   double scan_step = 0;
-  // > 0: where a form of the same effect fitted earlier in the round has a parameter of this name
-  // (its best by dIC), the fit starts at this fraction of that form's value, and without the scans
-  // (a richer form that sums two simpler ones: each at half its own fit)
-  double seed_fraction = 0;
-  // not empty: where a form of the same effect fitted earlier in the round has a parameter of this
-  // name (its best by dIC), the fit starts at seed_factor times that form's value, and without the
-  // scans (a form whose parameter is another's converted: a laminar leak's conductance from an
-  // orifice's area)
-  std::string seed_from;
+  // > 0: where a form of the same effect fitted earlier in the round has a parameter named seed_from
+  // (this parameter's own name where seed_from is empty; the form's best by dIC), the fit starts at
+  // seed_factor times that form's value, and without the scans: a richer form that sums two simpler
+  // ones, each at half its own fit (factor 0.5, the same names), or a form whose parameter is
+  // another's converted (a laminar leak's conductance from an orifice's area)
   double seed_factor = 0;
+  std::string seed_from;
   // sets the value on a model (with the candidate's edits) and the signal model: "" or why not
   std::function<std::string(mjModel*, SignalModel*, double)> apply;
 };

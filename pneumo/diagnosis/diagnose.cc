@@ -375,15 +375,13 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
              std::find(dropped.begin(), dropped.end(), c.effect) == dropped.end() &&
              (options.effects.empty() || std::find(options.effects.begin(), options.effects.end(), c.effect) != options.effects.end());
     };
-    // c with its seeded parameters started from this round's best fit (by dIC) of another form of the
-    // same effect: at seed_fraction of the value of the same name, or at seed_factor times the value of
-    // the parameter named seed_from (EffectParameter); *seeded says whether any was (its fit skips the scans)
+    // c with its seeded parameters (EffectParameter::seed_factor, seed_from) started from this round's
+    // best fit (by dIC) of another form of the same effect; *seeded says whether any was
     auto seeded_from_round = [&](Candidate c, bool* seeded) {
       *seeded = false;
       for (EffectParameter& p : c.parameters) {
-        const bool same_name = p.seed_fraction > 0, converted = !p.seed_from.empty() && p.seed_factor > 0;
-        if (!same_name && !converted) continue;
-        const std::string& source = same_name ? p.name : p.seed_from;
+        if (!(p.seed_factor > 0)) continue;
+        const std::string& source = p.seed_from.empty() ? p.name : p.seed_from;
         const CandidateResult* best = nullptr;
         double value = 0;
         for (const CandidateResult& other : r.ranking) {
@@ -392,9 +390,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
             if (q.name == source) best = &other, value = q.value;
           }
         }
-        if (!best) continue;
-        p.initial = std::clamp((same_name ? p.seed_fraction : p.seed_factor) * value, p.lower, p.upper);
-        *seeded = true;
+        if (best) p.initial = std::clamp(p.seed_factor * value, p.lower, p.upper), *seeded = true;
       }
       return c;
     };

@@ -27,7 +27,7 @@
 // effect's simpler form leads by dIC or is the runner-up (the best other effect whose simpler form
 // explains the gap by itself), with the joint refit's iterations (refit_iterations) and a finer scan
 // (refinement_scan_grid_points), or from the round's fits of its simpler forms where its parameters
-// say so (EffectParameter::seed_fraction), and then ranked with the rest. In a round with effects
+// say so (EffectParameter::seed_factor), and then ranked with the rest. In a round with effects
 // found where no candidate explains the gap, every effect with strong evidence (dIC <
 // max_delta_ic) is fitted again, in its best form, together with the found effects' parameters
 // and ranked with the rest (the joint screening: a found effect may have taken up part of the next one).

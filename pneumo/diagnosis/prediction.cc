@@ -12,27 +12,22 @@
 #include <Eigen/Dense>
 
 #include "prescribed_motion.h"
+#include "step_state.h"
 
 namespace pneumatic::diagnosis {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-// Copies what mj_step advances from, and nothing else: time, qpos, qvel, act, the solver's warm start, ctrl,
-// the applied forces, the mocap poses and userdata (the state MuJoCo's later releases name
-// mjSTATE_INTEGRATION), and the warnings Diverged reads. Everything else in mjData is computed from these by
-// the next mj_forward before it is read. mj_copyData copies every array of mjData, the constraint arrays sized
-// by njmax included (efc_AR alone is njmax^2 numbers): on rig C about 0.2 ms a copy, as long as the whole
-// warm-up run it restores (measured; 0.6 us a step).
+// Copies what mj_step advances from, and nothing else: StepStateArrays, the mocap poses and userdata (together
+// the state MuJoCo's later releases name mjSTATE_INTEGRATION), and the warnings Diverged reads. Everything else
+// in mjData is computed from these by the next mj_forward before it is read. mj_copyData copies every array of
+// mjData, the constraint arrays sized by njmax included (efc_AR alone is njmax^2 numbers): on rig C about
+// 0.2 ms a copy, as long as the whole warm-up run it restores (measured; 0.6 us a step).
 void CopyState(const mjModel* m, mjData* to, const mjData* from) {
-  to->time = from->time;
-  mju_copy(to->qpos, from->qpos, m->nq);
-  mju_copy(to->qvel, from->qvel, m->nv);
-  mju_copy(to->act, from->act, m->na);
-  mju_copy(to->qacc_warmstart, from->qacc_warmstart, m->nv);
-  mju_copy(to->ctrl, from->ctrl, m->nu);
-  mju_copy(to->qfrc_applied, from->qfrc_applied, m->nv);
-  mju_copy(to->xfrc_applied, from->xfrc_applied, 6 * m->nbody);
+  const auto source = StepStateArrays(m, from);
+  const auto target = StepStateArrays(m, to);
+  for (size_t i = 0; i < source.size(); ++i) mju_copy(target[i].first, source[i].first, source[i].second);
   mju_copy(to->mocap_pos, from->mocap_pos, 3 * m->nmocap);
   mju_copy(to->mocap_quat, from->mocap_quat, 4 * m->nmocap);
   mju_copy(to->userdata, from->userdata, m->nuserdata);
