@@ -22,6 +22,10 @@
 // ratio is to the twin replaying the same model's motion. The real-time factor is simulated time over
 // wall time.
 //
+// The target's budget: 1.10 times the twin less MuJoCo alone (the row not attached) is what the target
+// leaves the extension; beside it, the time of one factorization and solve of the mass matrix, the work
+// the end-of-step velocity the chamber volumes follow needs once per step.
+//
 // Rollouts: `pneumo rollout --controller pid --controller-config models_mjcf/humanoid_pid.json` on
 // the humanoid (pneumo/closed_loop.h; the shipped gains, as scripts/demo runs it: every tick also
 // computes each cylinder's mobility for them), 2 s each, 4 runs with 1 thread, then 4 runs over 2
@@ -226,6 +230,29 @@ double MicrosecondsPerStep(const Row& row, double seconds) {
   return 1e6 * elapsed / static_cast<double>(steps);
 }
 
+// microseconds per factorization and solve of the mass matrix (mj_factorM, then mj_solveM for one
+// vector) at the motion's first pose, about `seconds` of wall time: the work the end-of-step velocity
+// the chamber volumes follow needs once per step (velocity_prediction.cc factors M + hB the same way)
+double MicrosecondsPerMassSolve(const mjModel* m, const Motion& motion, double seconds) {
+  mjData* d = mj_makeData(m);
+  std::copy(motion.qpos0.begin(), motion.qpos0.end(), d->qpos);
+  mj_forward(m, d);
+  std::vector<mjtNum> force(d->qfrc_bias, d->qfrc_bias + m->nv), x(m->nv);
+  long solves = 0;
+  const auto start = Clock::now();
+  double elapsed = 0;
+  while (elapsed < seconds) {
+    for (int i = 0; i < 1000; ++i) {
+      mj_factorM(m, d);
+      mj_solveM(m, d, x.data(), force.data(), 1);
+    }
+    solves += 1000;
+    elapsed = std::chrono::duration<double>(Clock::now() - start).count();
+  }
+  mj_deleteData(d);
+  return 1e6 * elapsed / static_cast<double>(solves);
+}
+
 // rollouts per second of 2 s closed-loop runs: `runs` runs over `threads` threads
 double RolloutsPerSecond(const mjModel* m, int runs, int threads) {
   pneumatic::ClosedLoopOptions options;
@@ -303,6 +330,18 @@ int main() {
   const double chambers = 2.0 * static_cast<double>(pneumatic::Cylinders(pneumatic).size());
   std::printf("\nPneumatic over motors: +%.0f %% (the issue's target: at most +10 %%); %.3f us per chamber step.\n",
               100 * (median[0] / median_of(twin(rows[0])) - 1), (median[0] - median_of(twin(rows[0]))) / chambers);
+
+  // what the target leaves the extension: MuJoCo's own work on the pneumatic model (the row not
+  // attached: its 72 actuators and their callbacks, which return at once) is paid whatever the extension does
+  const double alone = median[1], twin_us = median_of(twin(rows[0]));
+  const double budget = 1.10 * twin_us - alone, spent = median[0] - alone;
+  const double mass_solve = MicrosecondsPerMassSolve(pneumatic, wave, 0.5);
+  std::printf("\nThe target's budget for the extension: 1.10 x %.2f - %.2f (MuJoCo alone) = %.2f us per step, "
+              "%.1f ns per chamber step; it takes %.2f us, %.1f ns per chamber step. One factorization and solve "
+              "of the mass matrix (mj_factorM + mj_solveM, nv = %d), which the end-of-step velocity needs once "
+              "per step: %.2f us, %.0f %% of that budget.\n",
+              twin_us, alone, budget, 1e3 * budget / chambers, spent, 1e3 * spent / chambers, pneumatic->nv, mass_solve,
+              100 * mass_solve / budget);
 
   std::printf("\n### Closed-loop rollouts of the humanoid (PID with humanoid_pid.json, 2 s each)\n\n| threads | rollouts/s |\n|---:|---:|\n");
   const double one = RolloutsPerSecond(pneumatic, 4, 1), two = RolloutsPerSecond(pneumatic, 4, 2);
