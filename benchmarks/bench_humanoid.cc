@@ -216,18 +216,27 @@ double Deviation(const Row& row) {
   return largest;
 }
 
-// microseconds per mj_step over whole replays, about `seconds` of wall time
-double MicrosecondsPerStep(const Row& row, double seconds) {
-  long steps = 0;
+// microseconds per unit of work, timed over about `seconds` of wall time: `batch` runs some and
+// returns how many units it ran
+template <typename Batch>
+double MicrosecondsPerUnit(double seconds, Batch batch) {
+  long units = 0;
   const auto start = Clock::now();
   double elapsed = 0;
   while (elapsed < seconds) {
-    Start(row);
-    for (long k = 0; k < row.motion->steps; ++k) Step(row, k);
-    steps += row.motion->steps;
+    units += batch();
     elapsed = std::chrono::duration<double>(Clock::now() - start).count();
   }
-  return 1e6 * elapsed / static_cast<double>(steps);
+  return 1e6 * elapsed / static_cast<double>(units);
+}
+
+// microseconds per mj_step over whole replays, about `seconds` of wall time
+double MicrosecondsPerStep(const Row& row, double seconds) {
+  return MicrosecondsPerUnit(seconds, [&]() {
+    Start(row);
+    for (long k = 0; k < row.motion->steps; ++k) Step(row, k);
+    return row.motion->steps;
+  });
 }
 
 // microseconds per factorization and solve of the mass matrix (mj_factorM, then mj_solveM for one
@@ -238,19 +247,15 @@ double MicrosecondsPerMassSolve(const mjModel* m, const Motion& motion, double s
   std::copy(motion.qpos0.begin(), motion.qpos0.end(), d->qpos);
   mj_forward(m, d);
   std::vector<mjtNum> force(d->qfrc_bias, d->qfrc_bias + m->nv), x(m->nv);
-  long solves = 0;
-  const auto start = Clock::now();
-  double elapsed = 0;
-  while (elapsed < seconds) {
+  const double us = MicrosecondsPerUnit(seconds, [&]() {
     for (int i = 0; i < 1000; ++i) {
       mj_factorM(m, d);
       mj_solveM(m, d, x.data(), force.data(), 1);
     }
-    solves += 1000;
-    elapsed = std::chrono::duration<double>(Clock::now() - start).count();
-  }
+    return 1000L;
+  });
   mj_deleteData(d);
-  return 1e6 * elapsed / static_cast<double>(solves);
+  return us;
 }
 
 // rollouts per second of 2 s closed-loop runs: `runs` runs over `threads` threads
