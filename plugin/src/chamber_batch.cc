@@ -16,6 +16,7 @@ bool Batchable(const ChamberModel& k) {
   return k.flow.law == FlowLaw::kThinPlate && k.flow.table != nullptr && !(k.atmosphere_leak_area > 0);
 }
 
+#if PNEUMATIC_VECTOR_LANES  // the CMake option of that name, on x86-64 with GCC or Clang
 namespace {
 
 // Four chambers in the lanes of GCC vector types, compiled for AVX2 (StepLanes). Every operation is the
@@ -214,20 +215,24 @@ bool VectorLanesAvailable() {
   static const bool available = __builtin_cpu_supports("avx2");
   return available;
 }
+#else   // built without the vector lanes: the scalar step alone
+bool VectorLanesAvailable() { return false; }
+#endif
 
 void LinearizedChambers(BatchedChamber chambers[], int count, double h) {
   LinearizedChambers(chambers, count, h, VectorLanesAvailable());
 }
 
 void LinearizedChambers(BatchedChamber chambers[], int count, double h, bool in_lanes) {
-  // without AVX2, each chamber by the scalar step, with the same result
-  if (!in_lanes) {
+  // without AVX2 (or built without the lanes), each chamber by the scalar step, with the same result
+  if (!in_lanes || !VectorLanesAvailable()) {
     for (int i = 0; i < count; ++i) {
       BatchedChamber& c = chambers[i];
       LinearizedChamberStep(*c.model, c.open_start, c.open_end, c.held, c.volume, c.p0, h, &c.p1, &c.done);
     }
     return;
   }
+#if PNEUMATIC_VECTOR_LANES
   BatchedChamber* lane[kLanes];
   int first = 0;
   for (; first + kLanes <= count; first += kLanes) {
@@ -239,6 +244,7 @@ void LinearizedChambers(BatchedChamber chambers[], int count, double h, bool in_
   BatchedChamber spare = chambers[count - 1];
   for (int j = 0; j < kLanes; ++j) lane[j] = first + j < count ? &chambers[first + j] : &spare;
   StepLanes(lane, h);
+#endif
 }
 
 }  // namespace pneumatic

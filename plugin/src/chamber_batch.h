@@ -29,7 +29,8 @@ bool Batchable(const ChamberModel& k);
 // LinearizedPressureStep(1, ...) for each of chambers[0, count), with the timestep h (s): in vector
 // lanes where the processor has AVX2, else one by one
 void LinearizedChambers(BatchedChamber chambers[], int count, double h);
-// the same, in lanes or one by one as asked (in_lanes needs AVX2: VectorLanesAvailable())
+// the same, in lanes or one by one as asked (lanes only where VectorLanesAvailable(): the build has
+// them, CMake option PNEUMATIC_VECTOR_LANES, and the processor has AVX2; else one by one)
 bool VectorLanesAvailable();
 void LinearizedChambers(BatchedChamber chambers[], int count, double h, bool in_lanes);
 

@@ -48,13 +48,6 @@ class Cylinder {
   const CylinderInfo& info() const { return info_; }
   // (actuator id, role) of every actuator of this cylinder
   const std::vector<std::pair<int, ActuatorRole>>& actuators() const { return actuators_; }
-  // what the binding read from the model besides actuator ids (for the model's fingerprint)
-  struct Binding {
-    int dof = -1;
-    double static_friction = 0;
-    int cap_site = -1, rod_site = -1;  // mount=hinge_sites
-  };
-  Binding binding() const { return {dof_, static_friction_, info_.cap_site, info_.rod_site}; }
   // true if a step of this cylinder follows the piston's predicted end-of-step velocity (its chambers
   // or its LuGre bristles)
   bool NeedsEndVelocity() const;

@@ -8,10 +8,17 @@
 // it, so a copy steps like its original; nothing outside the model refers to it.
 //
 // Decoding: the step needs the configuration decoded (flow-law constants, actuator
-// ids). Each thread keeps the last few decoded models keyed by fingerprint. Equal
-// fingerprints mean equal parameters and ids, so a cached entry is never stale: a
-// freed model leaves only an entry no other model can match, and a changed
-// parameter gives a new fingerprint.
+// ids, the static friction a joint's frictionloss gives). Each thread keeps the last
+// few decodings, each keyed by the stored fingerprint and by the values of the
+// mjModel fields it read that users may edit between steps (EditableFields: gears,
+// frictionloss, types, timestep, integrator; domain randomisation writes them). The
+// first callback MuJoCo makes for a model in each forward pass (its gate) compares
+// those fields and decodes the model again when they changed, so an edit reads the
+// same on every thread, as if the model had been attached with the edited values. An
+// edit that makes the model invalid (RK4, a timestep the PWM carrier does not allow,
+// a gear of 0) is warned of once and holds every pneumatic state, on every thread,
+// until it is undone. Equal fingerprints and fields mean equal decodings, so a cached
+// entry is never stale: a freed model leaves only an entry no other model can match.
 //
 // The pass: MuJoCo 2.2.2's mj_fwdActuation computes every actuator force, then
 // act_dot in increasing actuator id. The first pneumatic actuator with user
@@ -93,9 +100,9 @@ bool IsTagged(const mjModel* m, int id) {
   return user && (user[kTagSlot] == kMemberTag || user[kTagSlot] == kHomeTag || user[kTagSlot] == kReservoirTag);
 }
 
-// FNV-1a over the bytes of everything a decoding takes from the model: every cylinder's name,
-// packed configuration, actuator ids and roles, and its transmission (type, target, gear, the
-// joint's dof and frictionloss); 52 bits, so that a double holds it exactly
+// FNV-1a over the bytes of what Attach stores and names: every cylinder's name, packed
+// configuration, actuator ids and roles, and the reservoirs and their links; 52 bits, so that a
+// double holds it exactly. The mjModel fields a user may edit are not in it (EditableFields)
 double Fingerprint(const mjModel* m, const std::vector<Cylinder>& cylinders,
                    const std::vector<BoundReservoir>& reservoirs, const std::vector<int>& supply) {
   uint64_t hash = 1469598103934665603ULL;
@@ -114,16 +121,9 @@ double Fingerprint(const mjModel* m, const std::vector<Cylinder>& cylinders,
       mix(&role.role, sizeof(role.role));
       mix(&role.index, sizeof(role.index));
     }
-    int p = c.info().chamber_actuator[0];
-    mix(m->actuator_trntype + p, sizeof(int));
-    mix(m->actuator_trnid + 2 * p, 2 * sizeof(int));
-    mix(m->actuator_gear + 6 * p, 6 * sizeof(mjtNum));
-    Cylinder::Binding binding = c.binding();
-    mix(&binding.dof, sizeof(binding.dof));  // field by field: no padding bytes
-    mix(&binding.static_friction, sizeof(binding.static_friction));
-    if (binding.rod_site >= 0) {  // mount=hinge_sites (nothing for the others: their fingerprints are as before)
-      mix(&binding.cap_site, sizeof(binding.cap_site));
-      mix(&binding.rod_site, sizeof(binding.rod_site));
+    if (c.info().rod_site >= 0) {  // mount=hinge_sites: the sites, found by name
+      mix(&c.info().cap_site, sizeof(c.info().cap_site));
+      mix(&c.info().rod_site, sizeof(c.info().rod_site));
     }
   }
   // reservoirs and the links to them (nothing for a model without: its fingerprint is as before)
@@ -204,6 +204,13 @@ bool Link(const std::vector<Cylinder>& cylinders, std::vector<BoundReservoir>* r
 std::unique_ptr<CompiledModel> Finish(const mjModel* m, std::vector<Cylinder> cylinders,
                                       std::vector<BoundReservoir> reservoirs, std::string* error) {
   auto model = std::make_unique<CompiledModel>();
+  // the chamber steps rely on act += h * act_dot once per step
+  if (!cylinders.empty() && m->opt.integrator == mjINT_RK4) {
+    *error = "cylinder '" + cylinders[0].info().name + "': option 'integrator': RK4 is not supported: it evaluates "
+             "act_dot at intermediate stages, where the whole-step chamber update does not apply; use "
+             "integrator=\"Euler\" or \"implicit\"";
+    return nullptr;
+  }
   if (!Link(cylinders, &reservoirs, &model->supply, error)) return nullptr;
   model->roles.assign(m->nu, ActuatorRole{});
   for (size_t c = 0; c < cylinders.size(); ++c) {
@@ -342,22 +349,112 @@ void Store(mjModel* m, const CompiledModel& model) {
   }
 }
 
-// this thread's decoded models, most recently used first
+// The mjModel fields a decoding reads that a user may write between steps, in a fixed order (fields
+// that MuJoCo fixes at compile time, such as counts, names and the body tree, are not among them):
+// the options the step's validity depends on, every actuator's types, transmission, gear and gain,
+// and every dof's and tendon's frictionloss. `visit(value)` returns false to stop early; returns
+// false if it was stopped.
+template <class Visit>
+bool VisitEditableFields(const mjModel* m, Visit&& visit) {
+  if (!visit(m->opt.timestep) || !visit(m->opt.integrator)) return false;
+  for (int id = 0; id < m->nu; ++id) {
+    if (!visit(m->actuator_trntype[id]) || !visit(m->actuator_dyntype[id]) || !visit(m->actuator_gaintype[id]) ||
+        !visit(m->actuator_biastype[id]) || !visit(m->actuator_actlimited[id]) || !visit(m->actuator_trnid[2 * id]) ||
+        !visit(m->actuator_trnid[2 * id + 1]) || !visit(m->actuator_gainprm[mjNGAIN * id])) {
+      return false;
+    }
+    for (int i = 0; i < 6; ++i) {
+      if (!visit(m->actuator_gear[6 * id + i])) return false;
+    }
+  }
+  for (int i = 0; i < m->nv; ++i) {
+    if (!visit(m->dof_frictionloss[i])) return false;
+  }
+  for (int i = 0; i < m->ntendon; ++i) {
+    if (!visit(m->tendon_frictionloss[i])) return false;
+  }
+  return true;
+}
+
+std::vector<double> EditableFields(const mjModel* m) {
+  std::vector<double> fields;
+  VisitEditableFields(m, [&](double value) {
+    fields.push_back(value);
+    return true;
+  });
+  return fields;
+}
+
+// true if m's editable fields have the values in `fields`, bit for bit
+bool SameEditableFields(const mjModel* m, const std::vector<double>& fields) {
+  size_t i = 0;
+  bool same = VisitEditableFields(m, [&](double value) {
+    return i < fields.size() && std::memcmp(&value, &fields[i++], sizeof(double)) == 0;
+  });
+  return same && i == fields.size();
+}
+
+// the callback (our gain, bias or dynamics) that MuJoCo 2.2.2's mj_fwdActuation calls first for a
+// model in a forward pass: forces (gain, then bias) in increasing actuator id, then act_dot. It
+// checks the model's editable fields once per pass; every later callback of the pass trusts it
+struct Gate {
+  int actuator = -1;
+  enum Callback { kGain, kBias, kDynamics } callback = kDynamics;
+};
+bool ActGainIsOurs();
+Gate FindGate(const mjModel* m) {
+  for (int id = 0; id < m->nu; ++id) {
+    if (!IsTagged(m, id)) continue;
+    if (m->actuator_gaintype[id] == mjGAIN_USER && ActGainIsOurs()) return {id, Gate::kGain};
+    if (m->actuator_biastype[id] == mjBIAS_USER) return {id, Gate::kBias};
+  }
+  for (int id = m->nu - m->na; id < m->nu; ++id) {
+    if (IsTagged(m, id) && m->actuator_dyntype[id] == mjDYN_USER) return {id, Gate::kDynamics};
+  }
+  return {};
+}
+
+// a model decoded on this thread for one set of editable fields; `model` is null when those fields
+// make it invalid (or its storage is damaged), and `problem` says why
+struct Decoding {
+  double fingerprint = 0;
+  std::vector<double> fields;
+  Gate gate;
+  std::shared_ptr<const CompiledModel> model;
+  std::string problem;
+};
+
+// MuJoCo's warning, once per process for each message (every thread that meets a model's problem
+// meets the same message)
+void WarnOnce(const std::string& message) {
+  static std::mutex mutex;
+  static std::vector<std::string> said;
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    if (std::find(said.begin(), said.end(), message) != said.end()) return;
+    said.push_back(message);
+  }
+  mju_warning_s("%s", message.c_str());
+}
+
+// this thread's decodings, most recently used first
 struct ThreadCache {
   static constexpr size_t kSize = 8;
-  std::vector<std::shared_ptr<const CompiledModel>> models;
+  std::vector<std::shared_ptr<const Decoding>> entries;
 
-  std::shared_ptr<const CompiledModel> Find(double fingerprint) {
-    for (size_t i = 0; i < models.size(); ++i) {
-      if (models[i]->fingerprint != fingerprint) continue;
-      if (i > 0) std::rotate(models.begin(), models.begin() + i, models.begin() + i + 1);
-      return models[0];
+  // the decoding of m's fingerprint and present fields, moved to the front; null if there is none
+  const Decoding* Find(const mjModel* m, double fingerprint) {
+    for (size_t i = 0; i < entries.size(); ++i) {
+      if (entries[i]->fingerprint != fingerprint || !SameEditableFields(m, entries[i]->fields)) continue;
+      if (i > 0) std::rotate(entries.begin(), entries.begin() + i, entries.begin() + i + 1);
+      return entries[0].get();
     }
     return nullptr;
   }
-  void Add(std::shared_ptr<const CompiledModel> model) {
-    models.insert(models.begin(), std::move(model));
-    if (models.size() > kSize) models.pop_back();
+  const Decoding* Add(std::shared_ptr<const Decoding> decoding) {
+    entries.insert(entries.begin(), std::move(decoding));
+    if (entries.size() > kSize) entries.pop_back();
+    return entries[0].get();
   }
 };
 ThreadCache& GetThreadCache() {
@@ -365,24 +462,49 @@ ThreadCache& GetThreadCache() {
   return cache;
 }
 
-// the decoded model that actuator `id` of m belongs to, or null if it is not pneumatic
-const CompiledModel* Lookup(const mjModel* m, int id) {
-  if (!IsTagged(m, id)) return nullptr;
-  double fingerprint = UserData(m, id)[kFingerprintSlot];
+std::shared_ptr<Decoding> MakeDecoding(const mjModel* m, double fingerprint, std::shared_ptr<const CompiledModel> model,
+                                       std::string problem) {
+  auto decoding = std::make_shared<Decoding>();
+  decoding->fingerprint = fingerprint;
+  decoding->fields = EditableFields(m);
+  decoding->gate = FindGate(m);
+  decoding->model = std::move(model);
+  decoding->problem = std::move(problem);
+  return decoding;
+}
+
+// m's decoding for its present fields, from this thread's cache or decoded now from what m stores
+const Decoding* Resolve(const mjModel* m, double fingerprint) {
   ThreadCache& cache = GetThreadCache();
-  // the hot path: the model stepped last on this thread
-  if (!cache.models.empty() && cache.models[0]->fingerprint == fingerprint) return cache.models[0].get();
-  if (auto found = cache.Find(fingerprint)) return found.get();
-  // first step of this model on this thread: decode what the model stores
+  if (const Decoding* found = cache.Find(m, fingerprint)) return found;
   std::string error;
   std::shared_ptr<CompiledModel> model = CompileFromStorage(m, &error);
-  if (!model || model->fingerprint != fingerprint) {
-    mju_warning_s("pneumatic: the cylinder parameters stored in this model are damaged (%s); attach it again",
-                  model ? "fingerprint mismatch" : error.c_str());
-    return nullptr;
+  if (model && model->fingerprint != fingerprint) model = nullptr, error = "";
+  std::string problem;
+  if (!model) {
+    problem = error.empty() ? "pneumatic: the cylinder parameters stored in this model are damaged (fingerprint "
+                              "mismatch); attach it again"
+                            : "pneumatic: the model cannot be stepped as its fields now stand (edited after Attach): " +
+                                  error + "; its pneumatic states hold until the fields are set back";
+    WarnOnce(problem);
   }
-  cache.Add(model);
-  return model.get();
+  return cache.Add(MakeDecoding(m, fingerprint, std::move(model), problem));
+}
+
+// the decoding that actuator `id` of m belongs to, or null if it is not pneumatic; `callback` says
+// which of ours asks, so that the model's gate checks its fields
+const Decoding* Lookup(const mjModel* m, int id, Gate::Callback callback) {
+  if (!IsTagged(m, id)) return nullptr;
+  const double fingerprint = UserData(m, id)[kFingerprintSlot];
+  ThreadCache& cache = GetThreadCache();
+  // the hot path: a later callback of the pass whose gate resolved the model
+  if (!cache.entries.empty()) {
+    const Decoding& front = *cache.entries[0];
+    if (front.fingerprint == fingerprint && !(front.gate.actuator == id && front.gate.callback == callback)) {
+      return &front;
+    }
+  }
+  return Resolve(m, fingerprint);
 }
 
 // MuJoCo zeroes every control (mjWARN_BADCTRL) if any clamped control is NaN or beyond 1e10
@@ -516,44 +638,54 @@ mjtNum ActDyn(const mjModel* m, const mjData* d, int id) {
   // the hot path: a pneumatic actuator other than the leader, whose pass (earlier in this
   // mj_fwdActuation: MuJoCo asks in increasing id) wrote its act_dot
   if (IsTagged(m, id) && UserData(m, id)[LeaderSlot()] == 0) return d->act_dot[ActIndex(m, id)];
-  const CompiledModel* model = Lookup(m, id);
-  if (!model && IsTagged(m, id)) {
-    // the leader of a model whose stored parameters are damaged (Lookup warned): nothing steps on them
-    HoldEveryState(m, const_cast<mjData*>(d));
-    return 0;
-  }
-  if (!model) {
+  const Decoding* decoding = Lookup(m, id, Gate::kDynamics);
+  if (!decoding) {
     mjfAct previous = GetPrevious().dyn.load(std::memory_order_relaxed);
     return previous ? previous(m, d, id) : 0;
   }
-  // the pass writes every pneumatic act_dot of d at once; act_dot is MuJoCo's output slot for them
   mjData* data = const_cast<mjData*>(d);
-  if (id == model->leader) StepPass(*model, m, data);
+  if (!decoding->model) {
+    // the leader of a model that cannot be stepped (Resolve warned): every pneumatic state holds
+    HoldEveryState(m, data);
+    return 0;
+  }
+  // the pass writes every pneumatic act_dot of d at once; act_dot is MuJoCo's output slot for them
+  const CompiledModel& model = *decoding->model;
+  if (id == model.leader) StepPass(model, m, data);
   return d->act_dot[ActIndex(m, id)];
 }
 
 // gaintype="user": the chambers of a cylinder with mount=hinge_sites (their gain follows the lever arm);
-// every other pneumatic actuator with a user gain applies no force
+// every other pneumatic actuator with a user gain applies no force, nor does any of a model that
+// cannot be stepped
 mjtNum ActGain(const mjModel* m, const mjData* d, int id) {
-  const CompiledModel* model = Lookup(m, id);
+  const Decoding* decoding = Lookup(m, id, Gate::kGain);
+  if (!decoding) {
+    mjfAct previous = GetPrevious().gain.load(std::memory_order_relaxed);
+    return previous ? previous(m, d, id) : 0;
+  }
+  const CompiledModel* model = decoding->model.get();
   if (model && model->roles[id].role == Role::kChamber) {
     const Cylinder& c = model->cylinders[model->roles[id].cylinder];
     if (c.config().mount == Mount::kHingeSites) return c.ChamberGain(d, model->roles[id].index);
   }
-  if (model) return 0;
-  mjfAct previous = GetPrevious().gain.load(std::memory_order_relaxed);
-  return previous ? previous(m, d, id) : 0;
+  return 0;
 }
 
 mjtNum ActBias(const mjModel* m, const mjData* d, int id) {
-  const CompiledModel* model = Lookup(m, id);
+  const Decoding* decoding = Lookup(m, id, Gate::kBias);
+  if (!decoding) {
+    mjfAct previous = GetPrevious().bias.load(std::memory_order_relaxed);
+    return previous ? previous(m, d, id) : 0;
+  }
+  const CompiledModel* model = decoding->model.get();
   if (model && model->roles[id].role == Role::kFriction) {
     return model->cylinders[model->roles[id].cylinder].FrictionBias(m, d);
   }
-  if (model) return 0;
-  mjfAct previous = GetPrevious().bias.load(std::memory_order_relaxed);
-  return previous ? previous(m, d, id) : 0;
+  return 0;
 }
+
+bool ActGainIsOurs() { return mjcb_act_gain == ActGain; }
 
 // ours in MuJoCo's global callbacks, keeping whatever was there to serve the other actuators;
 // they stay installed (a model needs no detaching), and a later Attach takes them back if
@@ -575,8 +707,10 @@ std::shared_ptr<const CompiledModel> Compiled(const mjModel* m, std::string* err
   }
   for (int id = 0; id < m->nu; ++id) {
     if (!IsTagged(m, id)) continue;
-    if (!Lookup(m, id)) break;
-    return GetThreadCache().Find(UserData(m, id)[kFingerprintSlot]);
+    const Decoding* decoding = Resolve(m, UserData(m, id)[kFingerprintSlot]);
+    if (decoding->model) return decoding->model;
+    *error = decoding->problem;
+    return nullptr;
   }
   *error = "the model is not attached to the pneumatic extension";
   return nullptr;
@@ -592,18 +726,13 @@ bool StoreModel(mjModel* m, std::shared_ptr<CompiledModel> model, std::string* e
              std::to_string(ActuatorUserSize()) + "\"/> to the MJCF (it has " + std::to_string(m->nuser_actuator) + ")";
     return false;
   }
-  // the chamber steps rely on act += h * act_dot once per step
-  if (!model->cylinders.empty() && m->opt.integrator == mjINT_RK4) {
-    *error = "integrator RK4 is not supported: it evaluates act_dot at intermediate stages, where the "
-             "whole-step chamber update does not apply; use integrator=\"Euler\" or \"implicit\"";
-    return false;
-  }
   Store(m, *model);
   const bool pose_dependent_gains = std::any_of(model->cylinders.begin(), model->cylinders.end(), [](const Cylinder& c) {
     return c.config().mount == Mount::kHingeSites;
   });
-  GetThreadCache().Add(std::move(model));
-  InstallCallbacks(pose_dependent_gains);
+  InstallCallbacks(pose_dependent_gains);  // before the gate is found: it may be our gain callback
+  const double fingerprint = model->fingerprint;
+  GetThreadCache().Add(MakeDecoding(m, fingerprint, std::move(model), ""));
   return true;
 }
 
