@@ -239,3 +239,66 @@ INSTANTIATE_TEST_SUITE_P(
 
 }  // namespace
 }  // namespace pneumatic
+
+namespace pneumatic {
+namespace {
+
+// A program that installs its own mjcb_act_dyn after Attach: the extension finds it at its next call
+// (an API call, or a pass whose first callback is still ours), puts its own back in front, passes the
+// actuators that are not pneumatic to it, and warns once. The motion is the same as with no foreign
+// callback, whether it handles the pneumatic actuators wrongly (returns 0) or passes them on to ours.
+mjfAct saved_dyn = nullptr;
+mjtNum ZeroDynamics(const mjModel*, const mjData*, int) { return 0; }
+mjtNum ChainingDynamics(const mjModel* m, const mjData* d, int id) { return saved_dyn ? saved_dyn(m, d, id) : 0; }
+
+struct Foreign {
+  std::string name;
+  std::string model;
+  mjfAct callback;
+  bool api_call;  // the program calls Cylinders(m) after installing it (else only mj_step runs)
+};
+void PrintTo(const Foreign& f, std::ostream* os) { *os << f.name; }
+
+class ForeignCallback : public ::testing::TestWithParam<Foreign> {};
+
+TEST_P(ForeignCallback, IsChainedBehindOursAndSaidOnce) {
+  constexpr int kSteps = 2000;
+  const Foreign& foreign = GetParam();
+  Warnings warnings;
+  const std::string xml = ReadText(ShippedModel(foreign.model));
+  mjModel* m = LoadAttached(xml);
+  ASSERT_NE(m, nullptr);
+  const CylinderInfo c = Cylinders(m).at(0);
+  mjData* d = mj_makeData(m);
+  RunPattern(m, d, c, 0, kSteps);
+  const std::vector<double> reference = Continue(m, d, c, kSteps, kSteps);
+
+  saved_dyn = mjcb_act_dyn;
+  mjcb_act_dyn = foreign.callback;
+  if (foreign.api_call) EXPECT_EQ(Cylinders(m).size(), 1u);
+  const std::vector<double> with_foreign = Continue(m, d, c, kSteps, kSteps);
+  EXPECT_TRUE(SameBits(with_foreign, reference));
+  // said once per process: by the first of these tests that a process runs (ctest runs each alone)
+  static bool said_before = false;
+  std::vector<std::string> said = warnings.Take();
+  ASSERT_EQ(said.size(), said_before ? 0u : 1u);
+  if (!said.empty()) EXPECT_THAT(said[0], HasSubstr("mjcb_act_dyn was replaced after Attach"));
+  said_before = true;
+  EXPECT_NE(mjcb_act_dyn, foreign.callback) << "the extension's callback is back in front";
+  mj_deleteData(d);
+  mj_deleteModel(m);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Programs, ForeignCallback,
+    ::testing::Values(
+        // the friction actuator's bias callback is the first of each pass: it finds the foreign one
+        Foreign{"zero_seen_by_the_pass", "rig_proportional_full.xml", ZeroDynamics, false},
+        Foreign{"chaining_seen_by_the_pass", "rig_proportional_full.xml", ChainingDynamics, false},
+        // no friction: the dynamics callback is the first, and the program's API call finds it
+        Foreign{"zero_seen_by_an_api_call", "rig_onoff.xml", ZeroDynamics, true},
+        Foreign{"chaining_seen_by_an_api_call", "rig_onoff.xml", ChainingDynamics, true}),
+    [](const ::testing::TestParamInfo<Foreign>& info) { return info.param.name; });
+
+}  // namespace
+}  // namespace pneumatic

@@ -74,6 +74,7 @@ struct CompiledModel {
   std::vector<ActuatorRole> roles;  // by actuator id
   int leader = -1;                  // the pneumatic actuator whose act_dot MuJoCo asks for first
   bool predicts_velocity = false;   // some cylinder follows the predicted end-of-step velocity
+  bool pose_dependent_gains = false;  // some cylinder has mount=hinge_sites: its gains are our gain callback's
 };
 
 // the callbacks installed before ours, for every actuator that is not pneumatic; atomic, since
@@ -87,6 +88,20 @@ struct Previous {
 Previous& GetPrevious() {
   static Previous previous;
   return previous;
+}
+
+// an actuator that is not pneumatic, passed to the callback installed before ours; without one, what
+// MuJoCo 2.2.2 gives without a callback (`none`: gain 1, bias 0, act_dot 0). A callback that was
+// installed after ours and passes what it does not handle on to ours (Attach then put ours back in
+// front, chaining to it) comes back here for the same actuator: it gets `none` too, not a loop
+mjtNum CallPrevious(const std::atomic<mjfAct>& slot, const mjModel* m, const mjData* d, int id, mjtNum none) {
+  thread_local int depth = 0;
+  mjfAct previous = slot.load(std::memory_order_relaxed);
+  if (!previous || depth > 0) return none;
+  ++depth;
+  mjtNum value = previous(m, d, id);
+  --depth;
+  return value;
 }
 
 // an actuator's user data, if it has room for what the extension stores (StoreModel sees to it)
@@ -220,6 +235,7 @@ std::unique_ptr<CompiledModel> Finish(const mjModel* m, std::vector<Cylinder> cy
       if (m->actuator_dyntype[id] == mjDYN_USER && (model->leader < 0 || id < model->leader)) model->leader = id;
     }
     model->predicts_velocity |= cylinders[c].NeedsEndVelocity();
+    model->pose_dependent_gains |= cylinders[c].config().mount == Mount::kHingeSites;
   }
   for (size_t r = 0; r < reservoirs.size(); ++r) {
     int id = reservoirs[r].actuator;
@@ -402,6 +418,7 @@ struct Gate {
   enum Callback { kGain, kBias, kDynamics } callback = kDynamics;
 };
 bool ActGainIsOurs();
+void KeepCallbacks(const CompiledModel& model);
 Gate FindGate(const mjModel* m) {
   for (int id = 0; id < m->nu; ++id) {
     if (!IsTagged(m, id)) continue;
@@ -504,7 +521,9 @@ const Decoding* Lookup(const mjModel* m, int id, Gate::Callback callback) {
       return &front;
     }
   }
-  return Resolve(m, fingerprint);
+  const Decoding* decoding = Resolve(m, fingerprint);
+  if (decoding->model) KeepCallbacks(*decoding->model);
+  return decoding;
 }
 
 // MuJoCo zeroes every control (mjWARN_BADCTRL) if any clamped control is NaN or beyond 1e10
@@ -640,8 +659,7 @@ mjtNum ActDyn(const mjModel* m, const mjData* d, int id) {
   if (IsTagged(m, id) && UserData(m, id)[LeaderSlot()] == 0) return d->act_dot[ActIndex(m, id)];
   const Decoding* decoding = Lookup(m, id, Gate::kDynamics);
   if (!decoding) {
-    mjfAct previous = GetPrevious().dyn.load(std::memory_order_relaxed);
-    return previous ? previous(m, d, id) : 0;
+    return CallPrevious(GetPrevious().dyn, m, d, id, 0);
   }
   mjData* data = const_cast<mjData*>(d);
   if (!decoding->model) {
@@ -661,8 +679,7 @@ mjtNum ActDyn(const mjModel* m, const mjData* d, int id) {
 mjtNum ActGain(const mjModel* m, const mjData* d, int id) {
   const Decoding* decoding = Lookup(m, id, Gate::kGain);
   if (!decoding) {
-    mjfAct previous = GetPrevious().gain.load(std::memory_order_relaxed);
-    return previous ? previous(m, d, id) : 0;
+    return CallPrevious(GetPrevious().gain, m, d, id, 1);
   }
   const CompiledModel* model = decoding->model.get();
   if (model && model->roles[id].role == Role::kChamber) {
@@ -675,8 +692,7 @@ mjtNum ActGain(const mjModel* m, const mjData* d, int id) {
 mjtNum ActBias(const mjModel* m, const mjData* d, int id) {
   const Decoding* decoding = Lookup(m, id, Gate::kBias);
   if (!decoding) {
-    mjfAct previous = GetPrevious().bias.load(std::memory_order_relaxed);
-    return previous ? previous(m, d, id) : 0;
+    return CallPrevious(GetPrevious().bias, m, d, id, 0);
   }
   const CompiledModel* model = decoding->model.get();
   if (model && model->roles[id].role == Role::kFriction) {
@@ -690,13 +706,35 @@ bool ActGainIsOurs() { return mjcb_act_gain == ActGain; }
 // ours in MuJoCo's global callbacks, keeping whatever was there to serve the other actuators;
 // they stay installed (a model needs no detaching), and a later Attach takes them back if
 // someone replaced them. The gain callback only for a model whose gains change with its pose
-// (mount=hinge_sites): every other pneumatic gain is fixed in the model
-void InstallCallbacks(bool gain) {
+// (mount=hinge_sites): every other pneumatic gain is fixed in the model. Returns the names of
+// those it took back from another callback, "" if none
+std::string InstallCallbacks(bool gain) {
   Previous& previous = GetPrevious();
   std::lock_guard<std::mutex> lock(previous.installing);
-  if (mjcb_act_dyn != ActDyn) previous.dyn = mjcb_act_dyn, mjcb_act_dyn = ActDyn;
-  if (gain && mjcb_act_gain != ActGain) previous.gain = mjcb_act_gain, mjcb_act_gain = ActGain;
-  if (mjcb_act_bias != ActBias) previous.bias = mjcb_act_bias, mjcb_act_bias = ActBias;
+  std::string replaced;
+  auto take = [&](mjfAct& global, mjfAct ours, std::atomic<mjfAct>& before, const char* name) {
+    if (global == ours) return;
+    if (global) replaced += std::string(replaced.empty() ? "" : ", ") + name;
+    before = global, global = ours;
+  };
+  take(mjcb_act_dyn, ActDyn, previous.dyn, "mjcb_act_dyn");
+  if (gain) take(mjcb_act_gain, ActGain, previous.gain, "mjcb_act_gain");
+  take(mjcb_act_bias, ActBias, previous.bias, "mjcb_act_bias");
+  return replaced;
+}
+
+// A callback installed by the program after Attach, in place of one of ours the model needs: ours
+// back in front, passing every actuator that is not pneumatic to it, and a warning once. Seen where
+// the extension runs: an API call, or the gate of a pass whose first callback is still ours
+void KeepCallbacks(const CompiledModel& model) {
+  const bool gain = model.pose_dependent_gains;
+  if (mjcb_act_dyn == ActDyn && mjcb_act_bias == ActBias && (!gain || mjcb_act_gain == ActGain)) return;
+  std::string replaced = InstallCallbacks(gain);
+  if (!replaced.empty()) {
+    WarnOnce("pneumatic: " + replaced + " was replaced after Attach; the extension's callback is back in front "
+             "and passes every actuator that is not pneumatic to the replacement (install your callbacks "
+             "before Attach, which chains them, to avoid this)");
+  }
 }
 
 // the decoded model of m, or null and *error
@@ -708,6 +746,7 @@ std::shared_ptr<const CompiledModel> Compiled(const mjModel* m, std::string* err
   for (int id = 0; id < m->nu; ++id) {
     if (!IsTagged(m, id)) continue;
     const Decoding* decoding = Resolve(m, UserData(m, id)[kFingerprintSlot]);
+    if (decoding->model) KeepCallbacks(*decoding->model);
     if (decoding->model) return decoding->model;
     *error = decoding->problem;
     return nullptr;
@@ -727,10 +766,7 @@ bool StoreModel(mjModel* m, std::shared_ptr<CompiledModel> model, std::string* e
     return false;
   }
   Store(m, *model);
-  const bool pose_dependent_gains = std::any_of(model->cylinders.begin(), model->cylinders.end(), [](const Cylinder& c) {
-    return c.config().mount == Mount::kHingeSites;
-  });
-  InstallCallbacks(pose_dependent_gains);  // before the gate is found: it may be our gain callback
+  InstallCallbacks(model->pose_dependent_gains);  // before the gate is found: it may be our gain callback
   const double fingerprint = model->fingerprint;
   GetThreadCache().Add(MakeDecoding(m, fingerprint, std::move(model), ""));
   return true;

@@ -32,12 +32,21 @@ int ActuatorUserSize();
 
 // Reads the pneumatic cylinders of m, validates their configuration, stores it in
 // m (actuator_user; the gains of the cylinders' actuators become fixed) and
-// installs MuJoCo's actuator callbacks mjcb_act_dyn and mjcb_act_bias (and mjcb_act_gain for
-// a model with mount=hinge_sites), once per process; callbacks installed before keep serving every actuator that is not
-// pneumatic. Returns false and fills *error (naming the cylinder, actuator and
-// key) if the configuration is invalid; m is unchanged then. A model without any
+// installs MuJoCo's actuator callbacks mjcb_act_dyn and mjcb_act_bias (and
+// mjcb_act_gain for a model with mount=hinge_sites), once per process; callbacks
+// installed before keep serving every actuator that is not pneumatic. Returns
+// false and fills *error (naming the cylinder, actuator and key) if the
+// configuration is invalid; m is unchanged then. A model without any
 // "pneumatic:" element attaches with no cylinders. Attaching again re-reads the
 // MJCF text, discarding values set with SetParameter.
+//
+// A callback the program installs in place of the extension's after Attach is
+// found at the extension's next look at the model (Cylinders, IsAttached, the
+// parameter functions, or a forward pass whose first callback is still the
+// extension's: seal friction, mount=hinge_sites): the extension's goes back in
+// front, passing every other actuator to it, and MuJoCo warns once. Install
+// callbacks before Attach: a program that replaces mjcb_act_dyn afterwards and
+// calls none of these is not seen.
 bool Attach(mjModel* m, std::string* error);
 
 // Makes m an ordinary model again: its actuators lose their pneumatic tags (and
