@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <sstream>
 #include <utility>
 #include <vector>
 
@@ -10,15 +11,21 @@ namespace pneumatic {
 
 using nlohmann::json;
 
+std::string ParseJson(const std::string& text, const std::string& where, json* out) {
+  try {
+    *out = json::parse(text);
+  } catch (const json::exception& e) {  // a syntax error, or a number beyond a double (1e400)
+    return where + ": " + e.what();
+  }
+  return "";
+}
+
 std::string ReadJsonFile(const std::string& path, json* out) {
   std::ifstream in(path);
   if (!in) return path + ": cannot read";
-  try {
-    *out = json::parse(in);
-  } catch (const json::parse_error& e) {
-    return path + ": " + e.what();
-  }
-  return "";
+  std::stringstream text;
+  text << in.rdbuf();
+  return ParseJson(text.str(), path, out);
 }
 
 namespace {
@@ -35,7 +42,9 @@ std::string ReadGains(const json& object, const std::string& where, PositionPidG
       {"bandwidth", &PositionPidGains::bandwidth},
       {"pressure_margin", &PositionPidGains::pressure_margin},
       {"pressure_step", &PositionPidGains::pressure_step}};
-  for (const auto& [key, value] : object.items()) {
+  for (const auto& item : object.items()) {
+    const std::string& key = item.key();
+    const json& value = item.value();
     if (key == "cylinders") continue;
     auto it = std::find_if(kKeys.begin(), kKeys.end(), [&](const auto& k) { return key == k.first; });
     if (it == kKeys.end()) return where + ": unknown key '" + key + "' (kp, ki, kd, co_contraction, swing, onoff_band, bandwidth, pressure_margin, pressure_step, cylinders)";
@@ -56,11 +65,7 @@ std::string ModelControllerConfig(const mjModel* m, const std::string& controlle
   for (int i = 0; i < m->ntext; ++i) {
     if (element != m->names + m->name_textadr[i]) continue;
     *where = "the model's custom text '" + element + "'";
-    try {
-      *out = json::parse(m->text_data + m->text_adr[i]);
-    } catch (const json::parse_error& e) {
-      return *where + ": " + e.what();
-    }
+    if (std::string e = ParseJson(m->text_data + m->text_adr[i], *where, out); !e.empty()) return e;
     *found = true;
     return "";
   }

@@ -12,6 +12,8 @@
 
 namespace pneumatic {
 
+// Parses JSON text into *out; "" or the error (a syntax error, a number beyond a double), naming `where`.
+std::string ParseJson(const std::string& text, const std::string& where, nlohmann::json* out);
 // Parses the JSON file at `path` into *out; "" or the error, naming the file.
 std::string ReadJsonFile(const std::string& path, nlohmann::json* out);
 

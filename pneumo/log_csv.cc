@@ -54,6 +54,18 @@ std::string_view Trim(std::string_view text) {
   return text.substr(begin, text.find_last_not_of(" \t") - begin + 1);
 }
 
+// what keeps `cylinder` from standing in a header as the part of a column name before its dot: empty,
+// spaces around it, a comma, or a control character (a line break among them); "" if nothing
+std::string CylinderNameProblem(std::string_view cylinder) {
+  if (cylinder.empty()) return "is empty";
+  if (Trim(cylinder) != cylinder) return "has spaces around it";
+  for (const char c : cylinder) {
+    if (c == ',') return "holds a comma";
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) return "holds a control character";
+  }
+  return "";
+}
+
 // the comma-separated fields of a line, without surrounding spaces
 std::vector<std::string_view> SplitFields(std::string_view line) {
   std::vector<std::string_view> fields;
@@ -131,6 +143,9 @@ std::string ParseHeader(const std::vector<std::string_view>& fields,
     }
     const std::string cylinder(field.substr(0, dot));
     const std::string signal(field.substr(dot + 1));
+    if (std::string problem = CylinderNameProblem(cylinder); !problem.empty()) {
+      return "cylinder name " + Quote(cylinder) + " in column " + Quote(field) + " " + problem;
+    }
     if (!FindSignal(signal)) {
       return "unknown signal " + Quote(signal) + " in column " + Quote(field) +
              ", expected one of " + SignalNames();
@@ -204,6 +219,10 @@ ReadResult Parse(std::istream& in, const std::string& name, const ReadOptions& o
       }
       std::string comment = text.substr(text.find('#') + 1);
       if (!comment.empty() && comment[0] == ' ') comment.erase(0, 1);
+      if (comment.find('\r') != std::string::npos) {
+        // a line break the writer could not write back (a file with carriage-return line endings?)
+        return fail(line_number, 1, "carriage return inside a comment line, expected line feeds between lines");
+      }
       log.comments.push_back(std::move(comment));
       continue;
     }
@@ -292,9 +311,8 @@ std::string CheckContents(const Log& log) {
   for (std::size_t j = 0; j < log.columns.size(); ++j) {
     const Column& column = log.columns[j];
     const std::string name = column.name();
-    if (column.cylinder.empty() || Trim(column.cylinder) != column.cylinder ||
-        column.cylinder.find_first_of(",\r\n") != std::string::npos) {
-      return "cylinder name " + Quote(column.cylinder) + " cannot be written in a header";
+    if (std::string problem = CylinderNameProblem(column.cylinder); !problem.empty()) {
+      return "cylinder name " + Quote(column.cylinder) + " cannot be written in a header: it " + problem;
     }
     if (!FindSignal(column.signal)) return "unknown signal " + Quote(column.signal);
     if (!seen.emplace(name, j).second) return "duplicate column " + Quote(name);

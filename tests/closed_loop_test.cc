@@ -382,6 +382,18 @@ TEST(Humanoid, CarriesTheGainsOfHumanoidPidJson) {
 // 38 % of the inflow at the tick's end (148 kPa, subsonic to p_exhaust; eq. 1c by hand). So P covers
 // between 0.25 x 0.62 = 15.5 % and 25 % of the way. Then the rig follows the 10 mm step within 1 mm,
 // as under the valve mapping, every chamber at every step inside [p_exhaust, p_supply - margin].
+// found by tests/fuzz/fuzz_controller_config: a number beyond a double threw past the syntax-error handler
+// and ended the program (std::terminate) instead of naming the file
+TEST(ControllerConfig, ANumberBeyondADoubleIsAnErrorNamingTheFile) {
+  nlohmann::json config;
+  const std::string error = ParseJson("{\"kp\": -1e511}", "gains.json", &config);
+  EXPECT_THAT(error, HasSubstr("gains.json: "));
+  EXPECT_THAT(error, HasSubstr("number overflow"));
+  EXPECT_THAT(ParseJson("{\"kp\": ", "gains.json", &config), HasSubstr("gains.json: "));
+  EXPECT_EQ(ParseJson("{\"kp\": 1.5}", "gains.json", &config), "");
+  EXPECT_EQ(config["kp"], 1.5);
+}
+
 TEST(ClosedLoop, PressureTargetsMoveEachChamberAQuarterOfTheWayPerTickAndStayBelowTheSupply) {
   AttachedModel model;
   ASSERT_TRUE(model.Load(ShippedModel("rig_per_chamber.xml"), true)) << model.error();

@@ -274,6 +274,19 @@ TEST(LogCsvTest, RejectsColumnNameNotCylinderDotSignal) {
   ExpectRejected("time,cyl.x,\n0,1,2\n", 1, 3, "\"\" is not <cylinder>.<signal>");
 }
 
+// a name the writer could not write back: a carriage return or another control character inside it
+// (found by tests/fuzz/fuzz_log_csv: the reader accepted it, and its own check of the log refused it)
+TEST(LogCsvTest, RejectsCylinderNameWithAControlCharacter) {
+  ExpectRejected(std::string("time,cy\rl.x\n0,1\n"), 1, 2, "holds a control character");
+  ExpectRejected(std::string("time,cyl.x,a") + '\0' + "b.p_P\n0,1,2\n", 1, 3, "holds a control character");
+  ExpectRejected("time,cyl.x,a\tb.p_P\n0,1,2\n", 1, 3, "holds a control character");
+}
+
+// found by tests/fuzz/fuzz_log_csv: the reader kept the comment, and its own check of the log refused it
+TEST(LogCsvTest, RejectsCarriageReturnInsideAComment) {
+  ExpectRejected("# made by\rsomething\ntime,cyl.x\n0,1\n", 1, 1, "carriage return inside a comment line");
+}
+
 TEST(LogCsvTest, RejectsUnknownSignal) {
   ExpectRejected("time,cyl.x,cyl.p_A\n0,1,2\n", 1, 3, "unknown signal \"p_A\"");
   ExpectRejected("time,cyl.X\n0,1\n", 1, 2, "unknown signal \"X\"");

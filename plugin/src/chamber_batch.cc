@@ -16,7 +16,7 @@ bool Batchable(const ChamberModel& k) {
   return k.flow.law == FlowLaw::kThinPlate && k.flow.table != nullptr && !(k.atmosphere_leak_area > 0);
 }
 
-#if PNEUMATIC_VECTOR_LANES  // the CMake option of that name, on x86-64 with GCC or Clang
+#if PNEUMATIC_VECTOR_LANES  // the CMake option of that name, on x86-64 with GCC
 namespace {
 
 // Four chambers in the lanes of GCC vector types, compiled for AVX2 (StepLanes). Every operation is the
