@@ -356,6 +356,11 @@ TEST_F(ConfigTest, RejectsValueJustOutsideRange) {
       {OnOff().Set("temperature", "0"), "temperature"},
       {OnOff().Set("p_exhaust", "0"), "p_exhaust"},
       {OnOff().Set("p_atm", "-1"), "p_atm"},
+      // no cylinder has these: 1e-300 m^3 of dead volume, a 1000 bar supply, a 1e-5 mm stroke, a 1 m^2 piston
+      {OnOff().Set("dead_volume", "1e-300"), "P.dead_volume"},
+      {OnOff().Set("p_supply", "1e8"), "p_supply"},
+      {OnOff().Set("stroke", "1e-8"), "stroke"},
+      {OnOff().Set("area", "1"), "P.area"},
       {Proportional().Set("deadband", "1"), "deadband"},
       {Proportional().Set("spool_time_constant", "-0.001"), "spool_time_constant"},
       {Proportional().Set("discharge_coefficient", "1.1"), "P.discharge_coefficient"},

@@ -354,7 +354,7 @@ TEST_F(Parameters, FailedSetNamesTheProblemAndChangesNothing) {
       {"unknown key", "cyl", "bogus", 1, {"cylinder 'cyl'", "key 'bogus'", "unknown key"}},
       {"unknown prefixed key", "cyl", "P.bogus", 1, {"cylinder 'cyl'", "key 'P.bogus'", "unknown key"}},
       {"unknown cylinder", "nope", "P.area", 1e-4, {"'nope'"}},
-      {"out of range", "cyl", "P.area", -1e-4, {"cylinder 'cyl'", "key 'P.area'", "out of range (0, 1]"}},
+      {"out of range", "cyl", "P.area", -1e-4, {"cylinder 'cyl'", "key 'P.area'", "out of range [1e-07, 0.1]"}},
       {"out of range, plain chamber key", "cyl", "polytropic_index", 2.5,
        {"cylinder 'cyl'", "polytropic_index'", "out of range [1, 1.7]"}},
       {"out of range, cylinder key", "cyl", "gas_constant", 1e308, {"cylinder 'cyl'", "key 'gas_constant'", "out of range"}},

@@ -59,22 +59,24 @@ struct Param {
 #define IDENTIFIED(field) [](CylinderConfig& c, int k) -> double& { return c.chamber[k].identified.field; }
 
 // every key of the MJCF configuration. Ranges are what is physically plausible, so that a
-// mistyped exponent is refused here rather than diverging at the first step.
+// mistyped exponent is refused here rather than diverging at the first step: pressures from 1 kPa
+// to 100 bar absolute, strokes from 1 mm (1 mrad) to 10 m, piston areas from 0.1 mm^2 (a 0.36 mm
+// bore) to 0.1 m^2 (a 36 cm bore), dead volumes from 1 mm^3 to 100 litres.
 const Param kParams[] = {
     // cylinder
     {"valve", Scope::kCylinder, AppliesTo::kAll, "", nullptr, "onoff proportional_5_3 proportional_per_chamber", 0, 0, false, false,
      "valve arrangement: four on/off valves (paper 002), one 5/3 proportional valve (paper 001), or one proportional valve per chamber (paper 000)", nullptr},
     {"input", Scope::kCylinder, AppliesTo::kOnOff, "", "valves", "valves pwm", 0, 0, false, false,
      "on/off valves commanded one by one (u1..u4) or by one duty in [-1, 1] (paper 003 eqs. 12-13)", nullptr},
-    {"stroke", Scope::kCylinder, AppliesTo::kAll, "m (rad)", nullptr, nullptr, 0, 10, true, false,
+    {"stroke", Scope::kCylinder, AppliesTo::kAll, "m (rad)", nullptr, nullptr, 1e-3, 10, false, false,
      "stroke length l; x in [-l/2, l/2]", CYL(stroke)},
     {"x_mid", Scope::kCylinder, AppliesTo::kAll, "m (rad)", "0", nullptr, -100, 100, false, false,
      "actuator length at mid-stroke, so x = actuator_length - x_mid", CYL(x_mid)},
-    {"p_supply", Scope::kCylinder, AppliesTo::kAll, "Pa abs", "600000", nullptr, 0, 1e8, true, false,
+    {"p_supply", Scope::kCylinder, AppliesTo::kAll, "Pa abs", "600000", nullptr, 1e3, 1e7, false, false,
      "supply (compressor) pressure", CYL(p_supply)},
-    {"p_exhaust", Scope::kCylinder, AppliesTo::kAll, "Pa abs", "101325", nullptr, 0, 1e8, true, false,
+    {"p_exhaust", Scope::kCylinder, AppliesTo::kAll, "Pa abs", "101325", nullptr, 1e3, 1e7, false, false,
      "exhaust pressure; must be below p_supply", CYL(p_exhaust)},
-    {"p_atm", Scope::kCylinder, AppliesTo::kAll, "Pa abs", "p_exhaust", nullptr, 0, 1e8, false, false,
+    {"p_atm", Scope::kCylinder, AppliesTo::kAll, "Pa abs", "p_exhaust", nullptr, 1e3, 1e7, false, false,
      "ambient pressure on the outer piston faces; the activations are p - p_atm", CYL(p_atm)},
     {"temperature", Scope::kCylinder, AppliesTo::kAll, "K", "293.15", nullptr, 150, 1500, false, false,
      "gas temperature T, the same in supply, chambers and exhaust", CYL(temperature)},
@@ -139,9 +141,9 @@ const Param kParams[] = {
     {"step_tolerance", Scope::kCylinder, AppliesTo::kAll, "", "1e-4", nullptr, 0, 0.1, true, false,
      "local error allowed per step (linearized) or substep (exact), as a fraction of p_supply - p_exhaust", CYL(step_tolerance)},
     // chamber (key applies to both chambers; P.key or N.key to one)
-    {"area", Scope::kChamber, AppliesTo::kAll, "m^2 (m^3/rad)", nullptr, nullptr, 0, 1, true, false,
+    {"area", Scope::kChamber, AppliesTo::kAll, "m^2 (m^3/rad)", nullptr, nullptr, 1e-7, 0.1, false, false,
      "piston area on this side (cap side P, rod side N); displacement per radian for a rotary cylinder", CHAMBER(area)},
-    {"dead_volume", Scope::kChamber, AppliesTo::kAll, "m^3", nullptr, nullptr, 0, 1, true, false,
+    {"dead_volume", Scope::kChamber, AppliesTo::kAll, "m^3", nullptr, nullptr, 1e-9, 0.1, false, false,
      "chamber volume at the end of its stroke, ports and tube included", CHAMBER(dead_volume)},
     {"polytropic_index", Scope::kChamber, AppliesTo::kAll, "", "1.4", nullptr, 1, 1.7, false, false,
      "n: a sealed chamber follows p V^n = const (paper 002: 1.2; adiabatic air: 1.4); not used with thermal_model=energy", CHAMBER(polytropic_index)},
