@@ -3,6 +3,7 @@
 #include "output_file.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -18,6 +19,59 @@ namespace fs = std::filesystem;
 
 // the system's text for an errno value
 std::string Reason(int error) { return std::strerror(error); }
+
+// The temporaries being written, for the signal handler below: SIGINT, SIGTERM or SIGHUP in the
+// middle of a write removes them (unlink is async-signal-safe), then ends the process as the signal
+// would have, so that an interrupted tool leaves each output whole or untouched and no temporary
+// behind. A path that does not fit a slot is simply not removed.
+struct PendingTemporary {
+  std::atomic<bool> claimed{false};  // a writer holds this slot
+  std::atomic<bool> used{false};     // its path is complete: the handler may remove it
+  char path[4096] = "";
+};
+PendingTemporary pending[64];
+
+void RemovePendingAndRaise(int signal_number) {
+  for (PendingTemporary& p : pending) {
+    if (p.used.load(std::memory_order_acquire)) ::unlink(p.path);
+  }
+  ::signal(signal_number, SIG_DFL);
+  ::raise(signal_number);
+}
+
+// once per process: the handler, for each of the three signals whose disposition is still the
+// default (a program's own handler is left alone)
+void InstallSignalCleanup() {
+  static std::atomic<bool> installed{false};
+  if (installed.exchange(true)) return;
+  for (int signal_number : {SIGINT, SIGTERM, SIGHUP}) {
+    struct sigaction current {};
+    if (::sigaction(signal_number, nullptr, &current) != 0 || current.sa_handler != SIG_DFL) continue;
+    struct sigaction action {};
+    action.sa_handler = RemovePendingAndRaise;
+    sigemptyset(&action.sa_mask);
+    ::sigaction(signal_number, &action, nullptr);
+  }
+}
+
+// registers `path` before the temporary is created; -1 if no slot is free or it is too long
+int RegisterTemporary(const std::string& path) {
+  InstallSignalCleanup();
+  if (path.size() >= sizeof(pending[0].path)) return -1;
+  for (int i = 0; i < 64; ++i) {
+    if (pending[i].claimed.exchange(true)) continue;  // another writer's
+    std::memcpy(pending[i].path, path.c_str(), path.size() + 1);
+    pending[i].used.store(true, std::memory_order_release);
+    return i;
+  }
+  return -1;
+}
+
+void UnregisterTemporary(int slot) {
+  if (slot < 0) return;
+  pending[slot].used.store(false, std::memory_order_release);
+  pending[slot].claimed.store(false, std::memory_order_release);
+}
 
 // write all of `text` to `fd`, resuming after short writes; 0 or the errno of the failure
 int WriteAll(int fd, std::string_view text) {
@@ -82,18 +136,21 @@ std::string WriteReplacing(const std::string& path, const fs::path& target, cons
     return path + ": cannot create a temporary file in " + directory.string() + ": " +
            Reason(errno);
   }
+  // ours from here on: a signal removes it (one that arrives before this line leaves it empty)
+  const int slot = RegisterTemporary(temporary);
 
   // write, sync and close, then replace the target in one step
+  std::string problem;
   if (const int error = WriteAndClose(fd, source, true)) {
     ::unlink(temporary.c_str());
-    return path + ": writing failed: " + Reason(error);
-  }
-  if (::rename(temporary.c_str(), target.c_str()) != 0) {
-    const int error = errno;
+    problem = path + ": writing failed: " + Reason(error);
+  } else if (::rename(temporary.c_str(), target.c_str()) != 0) {
+    const int rename_error = errno;
     ::unlink(temporary.c_str());
-    return path + ": cannot replace the file: " + Reason(error);
+    problem = path + ": cannot replace the file: " + Reason(rename_error);
   }
-  return "";
+  UnregisterTemporary(slot);
+  return problem;
 }
 
 }  // namespace

@@ -8,7 +8,10 @@
 //    target's directory, which is renamed over the target once completely written, so the
 //    target is either untouched or the whole new text, concurrent writers never share a
 //    temporary, and a symlink to the target keeps pointing to the new file. On failure the
-//    temporary is removed and nothing is created at the target.
+//    temporary is removed and nothing is created at the target. A SIGINT, SIGTERM or SIGHUP that
+//    ends the process while it writes removes the temporary too (a handler installed at the first
+//    write, for each of those signals still at its default; it then ends the process as the signal
+//    would have), so an interrupted tool leaves each output whole or untouched and nothing beside it.
 // A directory is refused.
 #ifndef PNEUMATIC_OUTPUT_FILE_H_
 #define PNEUMATIC_OUTPUT_FILE_H_

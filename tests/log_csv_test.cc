@@ -4,7 +4,9 @@
 #include "output_file.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <gmock/gmock.h>
@@ -552,6 +554,41 @@ TEST_F(LogFileTest, WriteReplacesExistingFileAndLeavesNoTemporary) {
   ASSERT_EQ(WriteLog(path, SmallLog()), "");
   EXPECT_EQ(ReadText(path), kSmallLogText);
   EXPECT_EQ(Entries(dir_), std::vector<std::string>{"replaced.csv"});
+}
+
+// A tool stopped by Ctrl-C or `kill` in the middle of writing an output: a child process writes half
+// of a text, says so through a pipe and waits; it is then signalled. The output must be the file that
+// was there before (or absent), and no temporary may be left beside it.
+TEST_F(LogFileTest, SignalDuringAWriteLeavesTheOutputUntouchedAndNoTemporary) {
+  for (int signal_number : {SIGINT, SIGTERM}) {
+    SCOPED_TRACE(signal_number == SIGINT ? "SIGINT" : "SIGTERM");
+    const std::string path = WriteText("kept.csv", kExample);
+    int ready[2];
+    ASSERT_EQ(::pipe(ready), 0);
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      ::close(ready[0]);
+      WriteOutput(path, [&](const std::function<bool(std::string_view)>& emit) {
+        if (!emit("time,cyl.x\n0,1\n")) return false;
+        const char byte = 1;
+        if (::write(ready[1], &byte, 1) != 1) ::_exit(3);
+        ::pause();  // half written: wait for the signal
+        return emit("1,2\n");
+      }, "a log file");
+      ::_exit(0);  // not reached: the signal ends the child
+    }
+    ::close(ready[1]);
+    char byte = 0;
+    ASSERT_EQ(::read(ready[0], &byte, 1), 1) << "the child did not start writing";
+    ::close(ready[0]);
+    ASSERT_EQ(::kill(child, signal_number), 0);
+    int status = 0;
+    ASSERT_EQ(::waitpid(child, &status, 0), child);
+    EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == signal_number) << "ended as the signal ends a process";
+    EXPECT_EQ(ReadText(path), kExample);
+    EXPECT_EQ(Entries(dir_), std::vector<std::string>{"kept.csv"}) << "a temporary was left behind";
+  }
 }
 
 TEST_F(LogFileTest, NewFileGetsThePermissionsOfTheUmask) {

@@ -708,6 +708,30 @@ TEST_F(PneumoBinaryTest, InfoListsTheCommandOfTheProportionalRig) {
 // A command that runs for long refuses an output it could not write before it starts, not after: each
 // here would take minutes (1000 s of simulation, fits on it), and fails with the write's message and no
 // sign of having run (no progress, no "wrote")
+// Ctrl-C (SIGINT) or `kill` (SIGTERM) one second into a long run: the process ends as the signal ends
+// it, its outputs are the files that were there before, and nothing else is left in the folder (the
+// signal in the middle of a write itself: LogFileTest.SignalDuringAWriteLeavesTheOutputUntouchedAndNoTemporary)
+TEST_F(PneumoBinaryTest, ASignalDuringALongRunLeavesEveryOutputAsItWas) {
+  const std::string rig = Quote(ShippedModel("rig_per_chamber.xml"));
+  for (const char* signal_name : {"INT", "TERM"}) {
+    SCOPED_TRACE(signal_name);
+    WriteText(Path("log.csv"), "before\n");
+    WriteText(Path("summary.json"), "{}\n");
+    const std::string command = "timeout -s " + std::string(signal_name) + " 1 " + Quote(PNEUMO_BINARY) +
+                                " rollout " + rig + " --controller pid --duration 100000 --out " + Quote(Path("log.csv")) +
+                                " --summary " + Quote(Path("summary.json")) + " 2>/dev/null";
+    const int status = std::system(command.c_str());
+    ASSERT_TRUE(WIFEXITED(status));
+    EXPECT_EQ(WEXITSTATUS(status), 124) << "timeout signalled the run";
+    EXPECT_EQ(ReadText(Path("log.csv")), "before\n");
+    EXPECT_EQ(ReadText(Path("summary.json")), "{}\n");
+    std::vector<std::string> left;
+    for (const auto& entry : fs::directory_iterator(dir_)) left.push_back(entry.path().filename().string());
+    std::sort(left.begin(), left.end());
+    EXPECT_EQ(left, (std::vector<std::string>{"log.csv", "summary.json"}));
+  }
+}
+
 TEST_F(PneumoBinaryTest, LongCommandsRefuseAnOutputTheyCouldNotWriteBeforeRunning) {
   const std::string rig = Quote(ShippedModel("rig_per_chamber.xml"));
   const std::string missing = Path("missing/out.csv"), folder = dir_.string();
