@@ -484,6 +484,38 @@ void PistonLeakExchange(const ChamberModel k[2], const double volume[2], double 
   p[1] -= b * decayed;
 }
 
+void EnergyLeakExchange(const ChamberModel k[2], const double volume[2], double piston_leak, double area, double t,
+                        GasState gas[2]) {
+  // upstream u, downstream w: the higher pressure passes gas to the lower
+  const int u = gas[0].p >= gas[1].p ? 0 : 1, w = 1 - u;
+  const double gap = gas[u].p - gas[w].p;
+  if (!(gap > 0) || !(t > 0) || (!(piston_leak > 0) && !(area > 0))) return;
+  const ChamberModel& ku = k[u];
+  const double gamma = ku.gamma, r = ku.gas_constant, cp = gamma * r / (gamma - 1);
+  // the flow at the start, rated at the model's temperature and passing sqrt(T_ref / T_u) of it (a nozzle
+  // passes mass as 1/sqrt(T0)), as EnergyPressureStep rates it
+  const double scale = std::sqrt(ku.temperature / gas[u].t);
+  double rate = piston_leak * gap;
+  if (area > 0) rate += MassFlow(ku.leak_law, area, gas[u].p, gas[w].p);
+  rate *= scale;
+  // the mass that would equalize the pressures, each kilogram taking c_p T_u with it:
+  // dp_u = -gamma r T_u q / V_u, dp_w = +gamma r T_u q / V_w
+  const double equalizing = gap / (gamma * r * gas[u].t * (1 / volume[u] + 1 / volume[w]));
+  const double moved = -equalizing * std::expm1(-rate * t / equalizing);
+  double mass[2], energy[2];
+  for (int i = 0; i < 2; ++i) {
+    mass[i] = gas[i].p * volume[i] / (k[i].gas_constant * gas[i].t);
+    energy[i] = gas[i].p * volume[i] / (k[i].gamma - 1);
+  }
+  const double enthalpy = cp * gas[u].t * moved;
+  mass[u] -= moved, energy[u] -= enthalpy;
+  mass[w] += moved, energy[w] += enthalpy;
+  for (int i = 0; i < 2; ++i) {
+    gas[i].p = (k[i].gamma - 1) * energy[i] / volume[i];
+    gas[i].t = gas[i].p * volume[i] / (k[i].gas_constant * mass[i]);
+  }
+}
+
 double SupplyMassOverStep(const ChamberModel& k, const PortOpenings& o0, const PortOpenings& o1,
                           const VolumePath& volume, double p0, double p1, double piston_leak, double p_other0,
                           double p_other1, double h) {

@@ -158,6 +158,16 @@ GasState EnergyPressureStep(const ChamberModel& k, const PortSchedule& ports, co
                             double piston_leak, double piston_area, GasState other, GasState start, double h,
                             double* supply_mass);
 
+// thermal_model=energy: the leak across the piston alone over a time t (the laminar conductance
+// piston_leak and the orifice `area`), chambers at fixed volumes, in mass and internal energy: a mass q
+// leaves the upstream chamber u with its enthalpy c_p T_u and enters the other, so the gas's mass and
+// energy are kept exactly. q = q_eq (1 - exp(-Q t / q_eq)), with Q the flow at the start (rated as
+// EnergyPressureStep rates it) and q_eq the mass that equalizes the pressures at T_u: exact for the
+// laminar leak at a held T_u, never past equalization (the project's own form). The energy step takes it
+// in two halves around the chambers' own steps (Strang splitting).
+void EnergyLeakExchange(const ChamberModel k[2], const double volume[2], double piston_leak, double area, double t,
+                        GasState gas[2]);
+
 // line_volume > 0: the pressures of the line and of its chamber at the end of a step of length h.
 // The line (volume V_L, isothermal at the cylinder's temperature T: a thin tube's wall holds its gas
 // near ambient) takes the valve ports' flows, and passes Q_r to the chamber through its restriction

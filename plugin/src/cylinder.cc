@@ -548,22 +548,31 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
 
   // thermal_model=energy (both chambers physical, step linearized or exact: the parser sees to it): each
   // chamber's pressure and gas temperature by the energy equation's own implicit step; the leak across
-  // the piston sees the other chamber as it was at the start of the step
+  // the piston as an exchange of mass and enthalpy at fixed volumes in two halves around those steps
+  // (Strang splitting, EnergyLeakExchange), which keeps the gas's mass and energy exactly
   if (config_.thermal_model == ThermalModel::kEnergy) {
     PortSchedule ports[2] = {{config_, 0, valves}, {config_, 1, valves}};
-    GasState gas[2];
+    const VolumePath volume[2] = {Volume(0, motion.x, x_rate), Volume(1, motion.x, x_rate)};
+    GasState start[2], gas[2];
     for (int k = 0; k < 2; ++k) {
-      gas[k] = {p0[k], Act(m, d, extra_state_id_[kTemperatureP + k]) + config_.temperature};
+      start[k] = {p0[k], Act(m, d, extra_state_id_[kTemperatureP + k]) + config_.temperature};
+      gas[k] = start[k];
     }
+    const bool leaks = leak > 0 || config_.piston_leak_area > 0;
+    const double v_start[2] = {volume[0].At(0), volume[1].At(0)}, v_end[2] = {volume[0].At(h), volume[1].At(h)};
+    if (leaks) EnergyLeakExchange(models, v_start, leak, config_.piston_leak_area, h / 2, gas);
+    GasState end[2];
     for (int k = 0; k < 2; ++k) {
       double drawn = 0;
-      GasState end = EnergyPressureStep(models[k], ports[k], Volume(k, motion.x, x_rate), leak, config_.piston_leak_area,
-                                        gas[1 - k], gas[k], h, supply_drawn ? &drawn : nullptr);
-      rate[k] = (end.p - p0[k]) / h;
-      ActDot(m, d, extra_state_id_[kTemperatureP + k]) = (end.t - gas[k].t) / h;
+      end[k] = EnergyPressureStep(models[k], ports[k], volume[k], 0, 0, gas[1 - k], gas[k], h,
+                                  supply_drawn ? &drawn : nullptr);
       if (supply_drawn) *supply_drawn += drawn;
     }
-    for (int k = 0; k < 2; ++k) ActDot(m, d, info_.chamber_actuator[k]) = rate[k];
+    if (leaks) EnergyLeakExchange(models, v_end, leak, config_.piston_leak_area, h / 2, end);
+    for (int k = 0; k < 2; ++k) {
+      ActDot(m, d, info_.chamber_actuator[k]) = (end[k].p - p0[k]) / h;
+      ActDot(m, d, extra_state_id_[kTemperatureP + k]) = (end[k].t - start[k].t) / h;
+    }
     return;
   }
 
