@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <cstring>
 #include <iostream>
+#include <iterator>
 #include <system_error>
 
 namespace pneumatic {
@@ -54,11 +55,11 @@ void InstallSignalCleanup() {
   }
 }
 
-// registers `path` before the temporary is created; -1 if no slot is free or it is too long
+// registers the temporary at `path`, just created, for the handler; -1 if no slot is free or it is too long
 int RegisterTemporary(const std::string& path) {
   InstallSignalCleanup();
   if (path.size() >= sizeof(pending[0].path)) return -1;
-  for (int i = 0; i < 64; ++i) {
+  for (int i = 0; i < static_cast<int>(std::size(pending)); ++i) {
     if (pending[i].claimed.exchange(true)) continue;  // another writer's
     std::memcpy(pending[i].path, path.c_str(), path.size() + 1);
     pending[i].used.store(true, std::memory_order_release);

@@ -491,7 +491,7 @@ std::shared_ptr<Decoding> MakeDecoding(const mjModel* m, double fingerprint, std
 }
 
 // m's decoding for its present fields, from this thread's cache or decoded now from what m stores
-const Decoding* Resolve(const mjModel* m, double fingerprint) {
+const Decoding* Decode(const mjModel* m, double fingerprint) {
   ThreadCache& cache = GetThreadCache();
   if (const Decoding* found = cache.Find(m, fingerprint)) return found;
   std::string error;
@@ -508,6 +508,14 @@ const Decoding* Resolve(const mjModel* m, double fingerprint) {
   return cache.Add(MakeDecoding(m, fingerprint, std::move(model), problem));
 }
 
+// the same, with the extension's callbacks kept in front of any the program installed since (KeepCallbacks):
+// every look at a model outside the hot path goes through here
+const Decoding* Resolve(const mjModel* m, double fingerprint) {
+  const Decoding* decoding = Decode(m, fingerprint);
+  if (decoding->model) KeepCallbacks(*decoding->model);
+  return decoding;
+}
+
 // the decoding that actuator `id` of m belongs to, or null if it is not pneumatic; `callback` says
 // which of ours asks, so that the model's gate checks its fields
 const Decoding* Lookup(const mjModel* m, int id, Gate::Callback callback) {
@@ -521,9 +529,7 @@ const Decoding* Lookup(const mjModel* m, int id, Gate::Callback callback) {
       return &front;
     }
   }
-  const Decoding* decoding = Resolve(m, fingerprint);
-  if (decoding->model) KeepCallbacks(*decoding->model);
-  return decoding;
+  return Resolve(m, fingerprint);
 }
 
 // MuJoCo zeroes every control (mjWARN_BADCTRL) if any clamped control is NaN or beyond 1e10
@@ -746,7 +752,6 @@ std::shared_ptr<const CompiledModel> Compiled(const mjModel* m, std::string* err
   for (int id = 0; id < m->nu; ++id) {
     if (!IsTagged(m, id)) continue;
     const Decoding* decoding = Resolve(m, UserData(m, id)[kFingerprintSlot]);
-    if (decoding->model) KeepCallbacks(*decoding->model);
     if (decoding->model) return decoding->model;
     *error = decoding->problem;
     return nullptr;
