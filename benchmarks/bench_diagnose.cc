@@ -454,6 +454,10 @@ int main(int argc, char** argv) {
       std::optional<pneumatic::log::Log> held = train ? Simulate(rig, truth, 2, duration, &error, rate, shape, noise_scale) : std::nullopt;
       if (!held) {
         std::printf("rig %s %-60s simulation failed: %s\n", rig.name.c_str(), truth.label.c_str(), error.c_str());
+        std::string truth_name;  // a wrong verdict, never left out
+        for (const std::string& e : truth.effects) truth_name += (truth_name.empty() ? "" : "+") + e;
+        ++cases, clean += truth.effects.empty();
+        confusion[truth_name.empty() ? "none" : truth_name]["failed"]++;
         continue;
       }
       if (!supply_sensor) {
@@ -468,20 +472,22 @@ int main(int argc, char** argv) {
       if (verbose) o.progress = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
       dg::Diagnosis d = dg::Diagnose(rig.file, *train, &*held, o);
       const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      if (!d.error.empty()) {
+      std::string truth_name;
+      for (const std::string& e : truth.effects) truth_name += (truth_name.empty() ? "" : "+") + e;
+      if (truth_name.empty()) truth_name = "none";
+      if (!d.error.empty()) {  // a wrong verdict, never left out
         std::printf("rig %s %-60s diagnosis failed: %s\n", rig.name.c_str(), truth.label.c_str(), d.error.c_str());
+        ++cases, clean += truth.effects.empty();
+        confusion[truth_name]["failed"]++;
         continue;
       }
       std::string found;
       for (const std::string& e : d.effects) found += (found.empty() ? "" : "+") + e;
-      if (found.empty()) found = "none";
-      std::string truth_name;
-      for (const std::string& e : truth.effects) truth_name += (truth_name.empty() ? "" : "+") + e;
-      if (truth_name.empty()) truth_name = "none";
+      if (found.empty()) found = d.verdict;  // none or unexplained
       // correct: the same set of effects (order free)
       std::vector<std::string> a = truth.effects, b = d.effects;
       std::sort(a.begin(), a.end()), std::sort(b.begin(), b.end());
-      const bool ok = a == b;
+      const bool ok = a == b && (!truth.effects.empty() || d.verdict == "none");
       ++cases, correct += ok;
       if (truth.effects.empty()) ++clean, false_on_clean += !d.effects.empty();
       const double shrink = 100 * (d.heldout_gap_before - d.heldout_gap_after) / d.heldout_gap_before;

@@ -26,6 +26,47 @@ nlohmann::json ParametersJson(const std::vector<dg::ParameterResult>& parameters
   return out;
 }
 
+nlohmann::json CalibrationJson(const dg::Diagnosis& d) {
+  nlohmann::json out = {{"status", d.calibration_status}, {"heldout_gap", Number(d.heldout_gap_calibrated)},
+                        {"params", nlohmann::json::object()}};
+  for (const dg::CalibratedParameter& p : d.calibration) {
+    out["params"][p.name] = {{"nominal", p.nominal}, {"value", p.value}, {"standard_error", Number(p.standard_error)},
+                             {"unit", p.unit}, {"at_bound", p.at_bound}};
+  }
+  return out;
+}
+
+nlohmann::json NoiseFloorJson(const dg::Diagnosis& d) {
+  const dg::NoiseFloor& f = d.noise_floor;
+  nlohmann::json out = {{"gap", f.floor}, {"discretisation_gap", f.discretisation_gap}, {"signals", nlohmann::json::object()}};
+  for (size_t s = 0; s < d.signal_labels.size() && s < f.signal_floor.size(); ++s) {
+    out["signals"][d.signal_labels[s]] = {{"sensor_noise", f.sensor_noise[s]}, {"carried", f.carried[s]}, {"floor", f.signal_floor[s]}};
+  }
+  if (!f.error.empty()) out["error"] = f.error;
+  return out;
+}
+
+nlohmann::json UnexplainedJson(const dg::Unexplained& u) {
+  nlohmann::json out = {{"present", u.present}, {"gap", u.gap}, {"floor", u.floor}, {"ratio_to_floor", Number(u.gap / u.floor)},
+                        {"side", u.side.empty() ? nlohmann::json(nullptr) : nlohmann::json(u.side)},
+                        {"mechanical_side_ratio", Number(u.mechanical_ratio)}, {"pneumatic_side_ratio", Number(u.pneumatic_ratio)},
+                        {"full_ratio", Number(u.full_ratio)}, {"summary", u.summary}};
+  out["regimes"] = nlohmann::json::object();
+  for (const auto& [name, ratio] : u.regimes) out["regimes"][name] = ratio;
+  out["signals"] = nlohmann::json::object();
+  for (const dg::ResidualStructure& r : u.signals) {
+    nlohmann::json states = nlohmann::json::array();
+    for (const dg::StateDependence& dep : r.dependences) {
+      states.push_back({{"state", dep.state}, {"lag_s", dep.lag_s}, {"eta2", dep.eta2}, {"excess", dep.excess},
+                        {"bin_centre", dep.bins.centre}, {"bin_mean_residual", dep.bins.mean}, {"bin_count", dep.bins.count}});
+    }
+    out["signals"][r.signal] = {{"gap", r.gap}, {"floor", r.floor}, {"rms", r.rms}, {"mean", r.mean},
+                                {"systematic", r.systematic}, {"structured", r.structured},
+                                {"effective_samples", r.effective_samples}, {"states", states}};
+  }
+  return out;
+}
+
 nlohmann::json AssessmentJson(const dg::Diagnosis& d, const dg::Assessment& a) {
   nlohmann::json j;
   j["gap"] = Number(a.full.gap);
@@ -83,9 +124,10 @@ std::string Format(const char* format, double v) {
 
 std::string Html(const dg::Diagnosis& d, const DiagnoseCommandOptions& o) {
   std::ostringstream h;
-  const std::string verdict = d.effects.empty() ? "none" : d.effects[0];
+  const std::string verdict = d.verdict;
   std::string all;
   for (const std::string& e : d.effects) all += (all.empty() ? "" : ", ") + e;
+  if (all.empty()) all = d.verdict;
   h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>pneumo diagnose: " << Escape(verdict)
     << "</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}"
        "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:4px 8px;text-align:right}"
@@ -94,7 +136,7 @@ std::string Html(const dg::Diagnosis& d, const DiagnoseCommandOptions& o) {
        ".yes{color:#167a16;font-weight:bold}.failed{color:#b00}td.text{text-align:left}</style></head><body>\n";
   h << "<h1>Sim-to-real diagnosis</h1>\n<p>Model <code>" << Escape(o.model_path) << "</code>; " << Escape(d.split) << " ("
     << d.train_rows << " training rows, " << d.heldout_rows << " held-out rows; " << Format("%.1f", d.seconds) << " s).</p>\n";
-  h << "<div class=\"verdict\">Verdict: <b>" << Escape(d.effects.empty() ? std::string("none") : all) << "</b><br>Held-out gap "
+  h << "<div class=\"verdict\">Verdict: <b>" << Escape(all) << "</b><br>Held-out gap "
     << Format("%.4f", d.heldout_gap_before) << " &rarr; " << Format("%.4f", d.heldout_gap_after) << " ("
     << Format("%.1f", 100 * (d.heldout_gap_before - d.heldout_gap_after) / d.heldout_gap_before) << " % smaller)</div>\n";
   h << "<p>The gap is the normalised RMS of short-horizon predictions (" << Format("%.3g", o.diagnose.horizon_s)
@@ -185,12 +227,21 @@ std::string WriteReport(const dg::Diagnosis& d, const nlohmann::json& j, const D
 
 nlohmann::json DiagnosisJson(const dg::Diagnosis& d) {
   nlohmann::json j;
-  j["verdict"] = {{"effect", d.effects.empty() ? std::string("none") : d.effects[0]},
+  j["verdict"] = {{"effect", d.verdict},
                   {"effects", d.effects},
                   {"params", ParametersJson(d.parameters)},
+                  {"calibration", CalibrationJson(d)},
+                  {"noise_floor", NoiseFloorJson(d)},
+                  {"unexplained", UnexplainedJson(d.unexplained)},
+                  {"alternatives", nlohmann::json::array()},
                   {"heldout_gap_before", d.heldout_gap_before},
                   {"heldout_gap_after", d.heldout_gap_after},
                   {"shrink_pct", 100 * (d.heldout_gap_before - d.heldout_gap_after) / d.heldout_gap_before}};
+  for (const dg::Alternative& a : d.alternatives) {
+    j["verdict"]["alternatives"].push_back({{"effect", a.effect}, {"form", a.form}, {"params", ParametersJson(a.parameters)},
+                                            {"heldout_gap", Number(a.heldout_gap)}, {"delta_ic_vs_verdict", Number(a.delta_ic)},
+                                            {"experiment", a.experiment}});
+  }
   j["discretisation_gap"] = Number(d.discretisation_gap);
   j["split"] = d.split;
   j["rows"] = {{"train", d.train_rows}, {"heldout", d.heldout_rows}};
@@ -228,6 +279,7 @@ nlohmann::json DiagnosisJson(const dg::Diagnosis& d) {
                                   {"delta_ic", Number(c.delta_ic)},
                                   {"score", Number(c.delta_ic)},
                                   {"explains", c.explains},
+                                  {"rejected", c.rejected.empty() ? nlohmann::json(nullptr) : nlohmann::json(c.rejected)},
                                   {"refinement", c.refinement},
                                   {"with_found_effects", c.with_found_effects},
                                   {"evaluations", c.evaluations},

@@ -587,6 +587,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
       };
       c.parameters.push_back(tank("volume", "m^3", volume, 1.05 * chambers, 1000 * chambers));
       c.parameters.push_back(tank("line_conductance", "kg/(s Pa)", conductance, 1e-11, 1e-5));
+      for (EffectParameter& p : c.parameters) p.absent = p.upper;  // an endless tank, an unrestricted line
       out.push_back(std::move(c));
     }
   }
@@ -658,6 +659,7 @@ std::vector<Candidate> CandidateLibrary(const mjModel* m, const Measurements& me
     }
     for (const std::string chamber : {"P.", "N."}) {
       c->parameters.push_back(KeyParameter(n, chamber + "line_conductance", 1e-8, 1e-10, 1e-7, 1e-8, true));
+      c->parameters.back().absent = c->parameters.back().upper;  // an unrestricted line
     }
   };
   per_cylinder("line_dynamics", "a tube volume between the valve and each chamber, with its restriction",

@@ -17,6 +17,7 @@
 #define PNEUMATIC_DIAGNOSIS_CANDIDATES_H_
 
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <utility>
@@ -69,6 +70,11 @@ struct EffectParameter {
   // noise-free rig C log the fit of a p_N sensor's -10 kPa offset stopped at -5 kPa and gain 0.990
   // (the two trade off over the logged pressures) with steps of 3e-5 |z|
   double nominal = 0;
+  // the value that is the model without the effect, where it is neither the nominal of a linear
+  // parameter fitted as a deviation nor the lower bound (an unrestricted line, an endless tank:
+  // their upper bounds); NaN: that one. A fitted value at this end of the range means the effect is
+  // absent; at the other end, a magnitude the range cuts short (diagnose.cc, Implausible)
+  double absent = std::numeric_limits<double>::quiet_NaN();
   // fitted as z = ln(value / scale) (lower > 0): for magnitudes known only to a decade or two
   // (conductances, volumes), where a linear step either crawls or overshoots
   bool logarithmic = false;

@@ -7,6 +7,8 @@
 #include <map>
 #include <set>
 
+#include "diagnosis/plausibility.h"
+
 namespace pneumatic::diagnosis {
 namespace {
 
@@ -127,6 +129,7 @@ double EffectiveSamples(const Evaluated& ev, const Measurements& meas, const Gap
 struct FoundEffect {
   Candidate candidate;
   std::vector<ParameterResult> parameters;
+  bool calibration = false;  // the model's re-fitted nominal parameters: never dropped, not an effect
 };
 
 // the found effects but the skip-th (-1: all) as one candidate, edits and parameters in order
@@ -144,7 +147,9 @@ Candidate JointCandidate(const std::vector<FoundEffect>& found, int skip) {
 
 std::vector<std::string> EffectsOf(const std::vector<FoundEffect>& found) {
   std::vector<std::string> names;
-  for (const FoundEffect& f : found) names.push_back(f.candidate.effect);
+  for (const FoundEffect& f : found) {
+    if (!f.calibration) names.push_back(f.candidate.effect);
+  }
   return names;
 }
 
@@ -194,7 +199,120 @@ Scenario ScenarioOf(const std::vector<FoundEffect>& found, int skip) {
   return WithCandidate(Scenario{}, joint, values);
 }
 
+// the rows a log needs for the diagnosis' windows, and their lengths in rows
+struct WindowRows {
+  int horizon = 0, warmup = 0, min_rows = 0;
+};
+WindowRows RowsOfWindows(double row_period, const DiagnoseOptions& options) {
+  WindowRows w;
+  w.horizon = std::max(2, static_cast<int>(std::lround(options.horizon_s / row_period)));
+  w.warmup = std::max(1, static_cast<int>(std::lround(options.warmup_s / row_period)));
+  w.min_rows = w.warmup + 2 * (w.horizon + 1);
+  return w;
+}
+
+// Parameters before effects (calibration.h): fits the model's nominal parameters on the training
+// log and, when the fit succeeds, puts them first among the found effects (FoundEffect::calibration),
+// so that every candidate is fitted on top of them and every joint refit refits them too. Sets
+// out->calibration_status; the caller checks that they generalise to the held-out log.
+void Calibrate(const std::string& model_path, const Measurements& train, const GapOptions& train_gap, const DiagnoseOptions& options,
+               Diagnosis* out, std::vector<FoundEffect>* found, const std::function<void(const std::string&)>& say) {
+  if (options.calibration_iterations <= 0) return;
+  std::string error;
+  ModelPtr m = LoadEditedModel(model_path, {}, &error);
+  if (!m) {
+    out->calibration_status = "failed: " + error;
+    return;
+  }
+  Candidate calibration = CalibrationCandidate(m.get(), train);
+  if (calibration.parameters.empty()) return;
+  say("calibrating the model's nominal parameters on the training log (" + std::to_string(calibration.parameters.size()) + ")");
+  FitOptions fo;
+  fo.gap = train_gap;
+  fo.max_iterations = options.calibration_iterations;
+  fo.scan_points = 0;  // from the model's values
+  fo.progress = options.progress;
+  CandidateFit fit = FitCandidate(model_path, Scenario{}, calibration, train, fo);
+  // a parameter that runs to the bound of its plausible range asks for more than a calibration (a
+  // tube's volume beside a dead volume, a leak's pressure drop taken for a smaller index): it stays
+  // at the model's value, and the rest is fitted again without it, so that the effect shows
+  std::string left_nominal;
+  for (int pass = 0; pass < 2 && fit.error.empty(); ++pass) {
+    Candidate kept = calibration;
+    kept.parameters.clear();
+    std::vector<double> values;
+    for (size_t i = 0; i < calibration.parameters.size(); ++i) {
+      const EffectParameter& p = calibration.parameters[i];
+      if (BoundReached(p, fit.values[i]).empty()) {
+        kept.parameters.push_back(p), values.push_back(fit.values[i]);
+      } else {
+        left_nominal += (left_nominal.empty() ? "" : ", ") + p.name + Fixed(" (%.3g ", fit.values[i]) + p.unit + ")";
+      }
+    }
+    if (kept.parameters.size() == calibration.parameters.size()) break;
+    calibration = kept;
+    if (calibration.parameters.empty()) break;
+    for (size_t i = 0; i < values.size(); ++i) calibration.parameters[i].initial = values[i];
+    say("calibration: at the bound of its plausible range, left at the model's value: " + left_nominal);
+    fit = FitCandidate(model_path, Scenario{}, calibration, train, fo);
+  }
+  if (!fit.error.empty()) {
+    out->calibration_status = "failed: " + fit.error;
+    say("calibration " + out->calibration_status);
+    return;
+  }
+  out->calibration_status = left_nominal.empty() ? "fitted" : "fitted; at the bound of their plausible range, left at the model's values: " + left_nominal;
+  if (calibration.parameters.empty()) return;
+  std::vector<ParameterResult> fitted = FittedParameters(calibration, fit);
+  for (size_t i = 0; i < fitted.size(); ++i) calibration.parameters[i].initial = fitted[i].value;
+  found->push_back({calibration, fitted, true});
+}
+
+// Explanations as good as the verdict's: in the round that accepted the verdict's first effect,
+// every other effect that explains the gap by the same criteria with a dIC within
+// alternative_delta_ic of the accepted one's (its best form)
+std::vector<Alternative> Alternatives(const Diagnosis& d, const DiagnoseOptions& options) {
+  std::vector<Alternative> out;
+  if (d.effects.empty()) return out;
+  for (const Round& r : d.rounds) {
+    if (r.accepted != d.effects.front()) continue;
+    const CandidateResult* accepted = nullptr;
+    for (const CandidateResult& c : r.ranking) {
+      if (c.effect == r.accepted && c.explains) {
+        accepted = &c;
+        break;
+      }
+    }
+    if (!accepted) return out;
+    std::set<std::string> listed = {accepted->effect};
+    for (const CandidateResult& c : r.ranking) {  // ranked by dIC: each effect's best form first
+      if (!c.explains || listed.count(c.effect) || !(c.delta_ic - accepted->delta_ic < options.alternative_delta_ic)) continue;
+      listed.insert(c.effect);
+      out.push_back({c.effect, c.form, c.parameters, c.heldout_gap, c.delta_ic - accepted->delta_ic, DistinguishingExperiment(c.effect)});
+    }
+    if (!out.empty()) {  // and how the verdict's own effect would show
+      out.insert(out.begin(), {accepted->effect, accepted->form, accepted->parameters, accepted->heldout_gap, 0,
+                               DistinguishingExperiment(accepted->effect)});
+    }
+    return out;
+  }
+  return out;
+}
+
 }  // namespace
+
+std::string DistinguishingExperiment(const std::string& effect) {
+  if (effect == "valve_delay") return "step the valve command with the piston clamped: the pressure starts late only with a valve delay";
+  if (effect == "valve_deadband") return "small command steps around the valve's centre: no pressure response inside a deadband";
+  if (effect == "friction") return "a slow command ramp through zero velocity: the piston sticks and starts late only with friction";
+  if (effect == "leakage") return "close every valve with the piston clamped: the pressures drift only with a leak";
+  if (effect == "heat_transfer") return "fill a chamber fast, then hold its valve closed with the piston clamped: the pressure relaxes only with heat transfer";
+  if (effect == "supply_drop") return "log the supply pressure p_S during large flows: it sags only with a supply drop";
+  if (effect == "line_dynamics") return "a fast command step with the pressure measured at the valve and at the chamber: they differ only with a line";
+  if (effect == "payload") return "a fast acceleration from rest: the force needed grows with the moving mass, friction and valves aside";
+  if (effect == "sensor_bias") return "vent both chambers at rest (they must read atmospheric) and drive to a mechanical stop (x must read the stroke end)";
+  return "";
+}
 
 Regimes ClassifyRegimes(const mjModel* m, const Measurements& meas) {
   Regimes r;
@@ -252,9 +370,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     out.error = (train_log.source.empty() ? std::string("log") : train_log.source) + ": too short to fit: fewer than two rows";
     return out;
   }
-  const int horizon = std::max(2, static_cast<int>(std::lround(options.horizon_s / row_period)));
-  const int warmup = std::max(1, static_cast<int>(std::lround(options.warmup_s / row_period)));
-  const int min_rows = warmup + 2 * (horizon + 1);
+  const auto [horizon, warmup, min_rows] = RowsOfWindows(row_period, options);
   std::optional<Measurements> train, held;
   if (heldout_log) {
     train = PrepareMeasurements(m, train_log, min_rows, &error);
@@ -312,10 +428,12 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
   // the verdict rule (diagnose.h): an effect explains a held-out gap `without` -> `with` when its dIC
   // beats max_delta_ic, it shrinks the gap by min_improvement, and the part it removes is more than
   // min_discretisation_multiple times the model's discretisation gap
+  // the noise floor (noise_floor.h), once the calibration has set the model; 0 until then
+  double floor = 0;
   auto explains = [&](double delta_ic, double without, double with) {
     const double removed = std::sqrt(std::max(0.0, without * without - with * with));
     return delta_ic < options.max_delta_ic && (without - with) / without >= options.min_improvement &&
-           !(removed <= options.min_discretisation_multiple * out.discretisation_gap);
+           !(removed <= options.min_discretisation_multiple * out.discretisation_gap) && removed > floor;
   };
 
   Evaluated base_held = out.before.full;
@@ -354,8 +472,45 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     r->refit_heldout_gap = base_held.gap;
     return "";
   };
+  Calibrate(model_path, *train, train_gap, options, &out, &found_effects, say);
+  if (!found_effects.empty()) {
+    base_held = held_out_without(-1);
+    if (!base_held.error.empty()) {
+      out.error = "the calibrated model cannot predict the held-out log: " + base_held.error;
+      return out;
+    }
+    if (base_held.gap < out.heldout_gap_before) {
+      say(Fixed("calibrated: held-out gap %.4f", base_held.gap));
+    } else {  // it does not generalise: the model as given stays
+      out.calibration_status = Fixed("not kept: it did not shrink the held-out gap (%.4f", base_held.gap) +
+                               Fixed(" against %.4f as given)", out.heldout_gap_before);
+      say("calibration " + out.calibration_status);
+      found_effects.clear();
+      base_held = out.before.full;
+    }
+    out.heldout_gap_calibrated = base_held.gap;
+  }
+  out.calibration_scenario = ScenarioOf(found_effects, -1);
+  {
+    SignalModel floor_sensors;
+    ModelPtr calibrated = BuildScenario(model_path, out.calibration_scenario, *held, &floor_sensors, &error);
+    if (!calibrated) {
+      out.error = error;
+      return out;
+    }
+    out.noise_floor = EstimateNoiseFloor(calibrated.get(), floor_sensors, *held, held_gap, base_held, out.discretisation_gap);
+    floor = out.noise_floor.floor;
+    for (int s = 0; s < held->signals(); ++s) {
+      say("  " + held->SignalLabel(s) + Fixed(": sensor noise %.3g", out.noise_floor.sensor_noise[s]) +
+          Fixed(", carried through the windows %.3g", out.noise_floor.carried[s]) + Fixed(", floor %.4f", out.noise_floor.signal_floor[s]) +
+          Fixed(" (gap %.4f)", base_held.signal_gap[s]));
+    }
+    say(Fixed("noise floor of the held-out log: %.4f", floor) +
+        (out.noise_floor.error.empty() ? std::string() : " (the sensor noise alone: " + out.noise_floor.error + ")"));
+  }
+  auto effect_count = [&] { return static_cast<int>(EffectsOf(found_effects).size()); };
   const int max_rounds = 2 * options.max_effects;  // a dropped effect frees a place; bounded all the same
-  for (int round = 0; round < max_rounds && static_cast<int>(found_effects.size()) < options.max_effects; ++round) {
+  for (int round = 0; round < max_rounds && effect_count() < options.max_effects; ++round) {
     Round r;
     r.model_effects = EffectsOf(found_effects);
     const std::vector<std::string>& found = r.model_effects;
@@ -402,10 +557,10 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
       result->improvement = (base_held.gap - ev.gap) / base_held.gap;
       result->delta_ic = r.effective_samples * std::log(ev.residuals.squaredNorm() / reference.residuals.squaredNorm()) +
                          k * std::log(r.effective_samples);
-      result->explains = explains(result->delta_ic, reference.gap, ev.gap);
+      result->explains = explains(result->delta_ic, reference.gap, ev.gap) && result->rejected.empty();
     };
     auto report = [&](const CandidateResult& result) {
-      say("  " + result.effect + ": " + result.status +
+      say("  " + result.effect + ": " + result.status + (result.rejected.empty() ? std::string() : " (rejected: " + result.rejected + ")") +
           (std::isnan(result.heldout_gap) ? std::string()
                                           : Fixed(", held-out gap %.4f", result.heldout_gap) + Fixed(" (%+.1f %%)", -100 * result.improvement) +
                                                 Fixed(", dIC %.1f", result.delta_ic)) +
@@ -436,6 +591,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
         result.status = "fitted";
         result.train_gap = fit.train_gap_after;
         result.parameters = FittedParameters(c, fit);
+        result.rejected = Implausible(c, fit.values, fit.conditional_standard_errors);
         Evaluated ev = EvaluateScenario(model_path, WithCandidate(scenario, c, fit.values), *held, held_gap);
         if (!ev.error.empty()) {
           result.status = "failed: on the held-out log: " + ev.error;
@@ -495,7 +651,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     // model, its own parameters counted (the found effects' were counted when they were accepted)
     std::vector<std::vector<double>> found_values(r.ranking.size());  // per entry: the found effects' values, if joint
     const bool none_explains = std::none_of(r.ranking.begin(), r.ranking.end(), [](const CandidateResult& c) { return c.explains; });
-    if (!found_effects.empty() && none_explains && options.refit_iterations > 0) {
+    if (effect_count() > 0 && none_explains && options.refit_iterations > 0) {
       std::vector<size_t> best_form;  // per effect with strong evidence, its form with the lowest dIC, by dIC
       for (size_t i = 0; i < r.ranking.size(); ++i) {
         const CandidateResult& c = r.ranking[i];
@@ -535,6 +691,8 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
           result.status = "fitted";
           result.train_gap = fit.train_gap_after;
           result.parameters = FittedParameters(c, fit, first);
+          result.rejected = Implausible(c, std::vector<double>(fit.values.begin() + first, fit.values.end()),
+                                        std::vector<double>(fit.conditional_standard_errors.begin() + first, fit.conditional_standard_errors.end()));
           Evaluated ev = EvaluateScenario(model_path, WithCandidate(Scenario{}, joint, fit.values), *held, held_gap);
           if (!ev.error.empty()) {
             result.status = "failed: on the held-out log: " + ev.error;
@@ -607,7 +765,8 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
       // went to its lower bound in the refit)
       int weakest = -1;
       double weakest_ic = -std::numeric_limits<double>::infinity(), weakest_improvement = 0;
-      for (int e = 0; found_effects.size() > 1 && e < static_cast<int>(found_effects.size()); ++e) {
+      for (int e = 0; effect_count() > 1 && e < static_cast<int>(found_effects.size()); ++e) {
+        if (found_effects[e].calibration) continue;  // parameters before effects: never dropped
         Evaluated without = held_out_without(e);
         if (!without.error.empty()) continue;  // cannot do without it
         const double k = static_cast<double>(found_effects[e].candidate.parameters.size());
@@ -638,18 +797,70 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     if (stop) break;
   }
   out.effects = EffectsOf(found_effects);
-  for (const FoundEffect& f : found_effects) out.parameters.insert(out.parameters.end(), f.parameters.begin(), f.parameters.end());
+  for (const FoundEffect& f : found_effects) {
+    if (!f.calibration) {
+      out.parameters.insert(out.parameters.end(), f.parameters.begin(), f.parameters.end());
+      continue;
+    }
+    for (size_t i = 0; i < f.parameters.size(); ++i) {  // as the last joint refit left them
+      const EffectParameter& p = f.candidate.parameters[i];
+      const ParameterResult& r = f.parameters[i];
+      out.calibration.push_back({r.name, r.unit, p.nominal, r.value, r.standard_error, !BoundReached(p, r.value).empty()});
+    }
+  }
+  out.verdict_scenario = ScenarioOf(found_effects, -1);
   SignalModel final_sensors;
-  ModelPtr final_model = BuildScenario(model_path, ScenarioOf(found_effects, -1), *held, &final_sensors, &error);
+  ModelPtr final_model = BuildScenario(model_path, out.verdict_scenario, *held, &final_sensors, &error);
   if (!final_model) {
     out.error = error;
     return out;
   }
   out.after = Assess(final_model.get(), final_sensors, *held, held_gap, out.regimes);
   out.heldout_gap_after = out.after.full.gap;
+  out.unexplained = DescribeResidual(*held, held_gap, out.after.full, out.after.pneumatic_gap, out.after.mechanical_gap, out.regimes.names,
+                                     out.after.regime_gap, out.noise_floor, options.floor_multiple);
+  out.verdict = !out.effects.empty() ? out.effects.front() : out.unexplained.present ? "unexplained" : "none";
+  say("verdict: " + out.verdict + (out.unexplained.present && !out.effects.empty() ? " (a structured residual remains unexplained)" : ""));
+  out.alternatives = Alternatives(out, options);
   out.heldout = std::move(*held);
   out.seconds = Seconds(t0);
   return out;
+}
+
+Graded GradeOnLog(const std::string& model_path, const Diagnosis& d, const log::Log& test, const DiagnoseOptions& options) {
+  Graded g;
+  std::string error;
+  ModelPtr nominal = LoadEditedModel(model_path, {}, &error);
+  if (!nominal) {
+    g.error = error;
+    return g;
+  }
+  const double period = test.Period();
+  if (!(period > 0) || std::fabs(period - d.heldout.period) > 1e-9 * period) {
+    g.error = test.source + ": the test log must have the diagnosed logs' row period";
+    return g;
+  }
+  const WindowRows w = RowsOfWindows(period, options);
+  std::optional<Measurements> meas = PrepareMeasurements(nominal.get(), test, w.min_rows, &error);
+  if (!meas) {
+    g.error = error;
+    return g;
+  }
+  GapOptions gap;
+  gap.signal_scale = d.signal_scale;
+  gap.threads = options.threads;
+  gap.windows = MakeWindows(meas->rows(), w.horizon, w.warmup);
+  const Evaluated before = Evaluate(nominal.get(), SignalModel::Identity(*meas), *meas, gap);
+  const Evaluated calibrated = EvaluateScenario(model_path, d.calibration_scenario, *meas, gap);
+  const Evaluated after = EvaluateScenario(model_path, d.verdict_scenario, *meas, gap);
+  for (const Evaluated* e : {&before, &calibrated, &after}) {
+    if (!e->error.empty()) {
+      g.error = "the test log cannot be predicted: " + e->error;
+      return g;
+    }
+  }
+  g.gap_before = before.gap, g.gap_calibrated = calibrated.gap, g.gap_after = after.gap;
+  return g;
 }
 
 }  // namespace pneumatic::diagnosis

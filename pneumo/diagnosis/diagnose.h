@@ -40,10 +40,13 @@
 #include <string>
 #include <vector>
 
+#include "diagnosis/calibration.h"
 #include "diagnosis/effect_fit.h"
 #include "diagnosis/measurements.h"
+#include "diagnosis/noise_floor.h"
 #include "diagnosis/prediction.h"
 #include "diagnosis/residual_tests.h"
+#include "diagnosis/unexplained.h"
 #include "log_csv.h"
 
 namespace pneumatic::diagnosis {
@@ -78,6 +81,15 @@ struct DiagnoseOptions {
   // fit on every fit_window_stride-th window of the training log (1: all; 2: every other window,
   // half the cost, windows still spread over the whole log); the held-out score uses every window
   int fit_window_stride = 2;
+  // parameters before effects (calibration.h): the model's nominal parameters are re-fitted on the
+  // training log, with up to this many iterations, before any effect is tried (0: not calibrated)
+  int calibration_iterations = 20;
+  // the noise floor (noise_floor.h): a gap is "well above" it beyond floor_multiple times it, and
+  // an effect must remove more of the gap than the floor (the part sqrt(before^2 - after^2))
+  double floor_multiple = 2;
+  // two explanations whose dIC differ by less than this are both an answer (Diagnosis::alternatives):
+  // short of Kass and Raftery's "very strong" evidence for one over the other
+  double alternative_delta_ic = 10;
   std::vector<std::string> effects;  // candidates to try by effect name; empty: the whole library
   std::function<void(const std::string&)> progress;  // one line at a time, for stderr
 };
@@ -97,7 +109,11 @@ struct CandidateResult {
   double train_gap = kNotComputed, heldout_gap = kNotComputed;
   double improvement = kNotComputed;  // (gap_before - gap) / gap_before on the held-out log
   double delta_ic = kNotComputed;
-  bool explains = false;  // passes both criteria
+  bool explains = false;  // passes every criterion
+  // why it may not explain the gap whatever its scores: a fitted value at the far bound of its range
+  // (implausible), or a parameter the data do not determine (standard error larger than its
+  // deviation from the model without the effect); "" if neither (diagnose.cc, Implausible)
+  std::string rejected;
   bool refinement = false;  // a richer form (Candidate::refinement), fitted because its effect led or was the runner-up
   // fitted together with the found effects' parameters (the joint screening, diagnose.cc)
   bool with_found_effects = false;
@@ -139,10 +155,35 @@ struct Assessment {  // one model on the held-out log
   std::vector<double> input_correlation;               // per signal: largest |corr| with any command
 };
 
+// Another explanation as good as the verdict's (DiagnoseOptions::alternative_delta_ic).
+struct Alternative {
+  std::string effect, form;
+  std::vector<ParameterResult> parameters;
+  double heldout_gap = kNotComputed;
+  double delta_ic = kNotComputed;  // its dIC less the verdict's (> 0: the verdict is ahead)
+  std::string experiment;          // what would tell it from the verdict (DistinguishingExperiment)
+};
+
+// The experiment on the rig that would show `effect` and not the others (the report's advice
+// where two explanations fit equally well).
+std::string DistinguishingExperiment(const std::string& effect);
+
 struct Diagnosis {
   std::string error;
-  std::vector<std::string> effects;  // found, in order; empty: none
+  // "none", "unexplained", or the first established effect (effects[0])
+  std::string verdict;
+  std::vector<std::string> effects;  // established, in order; empty: none or unexplained
   std::vector<ParameterResult> parameters;  // of the effects found
+  // the calibration (calibration.h): "fitted", "not kept: ..." (it did not shrink the held-out
+  // gap), "failed: ..." or "off"; its parameters, and the held-out gap of the calibrated model
+  std::string calibration_status = "off";
+  std::vector<CalibratedParameter> calibration;
+  double heldout_gap_calibrated = kNotComputed;
+  NoiseFloor noise_floor;    // of the held-out log, with the calibrated model
+  Unexplained unexplained;   // what the verdict's model leaves on the held-out log
+  std::vector<Alternative> alternatives;
+  // the verdict's model (calibration and effects), and the calibration alone, for GradeOnLog
+  Scenario verdict_scenario, calibration_scenario;
   double heldout_gap_before = 0, heldout_gap_after = 0;
   // the model's own numerical error on the held-out log, as a gap (the verdict rule's third
   // criterion); NaN if its prediction at a quarter of the timestep failed (the criterion is then not applied)
@@ -159,6 +200,15 @@ struct Diagnosis {
 };
 
 Diagnosis Diagnose(const std::string& model_path, const log::Log& train, const log::Log* heldout, const DiagnoseOptions& options);
+
+// The gap on a log the diagnosis never saw (a test log, graded only): the model as given, with
+// the calibration alone, and the verdict's model (calibration and effects), with the diagnosis'
+// windows and signal scales.
+struct Graded {
+  double gap_before = kNotComputed, gap_calibrated = kNotComputed, gap_after = kNotComputed;
+  std::string error;
+};
+Graded GradeOnLog(const std::string& model_path, const Diagnosis& d, const log::Log& test, const DiagnoseOptions& options);
 
 }  // namespace pneumatic::diagnosis
 

@@ -394,6 +394,13 @@ CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, c
     identification::Uncertainty u = identification::EstimateUncertainty(J, r, names, fit.values, scales, uo);
     fit.standard_errors = u.error.empty() ? u.standard_error : std::vector<double>(k, std::numeric_limits<double>::infinity());
     fit.poorly_determined = u.error.empty() ? u.poorly_determined : std::vector<std::string>(k, u.error);
+    // each parameter's standard error with the others held at their values: the same estimate on
+    // its Jacobian column alone (CandidateFit)
+    for (size_t i = 0; i < k; ++i) {
+      const identification::Uncertainty alone = identification::EstimateUncertainty(
+          J.col(static_cast<Eigen::Index>(i)), r, {names[i]}, {fit.values[i]}, {scales[i]}, uo);
+      fit.conditional_standard_errors.push_back(alone.error.empty() ? alone.standard_error[0] : std::numeric_limits<double>::infinity());
+    }
     fit.evaluations = cost->evaluations();
   }
   return fit;

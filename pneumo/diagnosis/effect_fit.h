@@ -61,6 +61,11 @@ Evaluated Evaluate(const mjModel* m, const SignalModel& sensors, const Measureme
 struct CandidateFit {
   std::vector<double> values, standard_errors;  // per parameter, in its unit
   std::vector<std::string> poorly_determined;   // per parameter, "" if well determined
+  // per parameter, its standard error with the others held at their fitted values (the same
+  // estimate on its Jacobian column alone): how well the data determine it given the others. Two
+  // parameters that trade off (a sensor's offset and gain) have large standard errors and small
+  // conditional ones; a parameter the data ignore has both large
+  std::vector<double> conditional_standard_errors;
   double train_gap_before = 0, train_gap_after = 0;
   int iterations = 0, evaluations = 0;
   bool converged = false;

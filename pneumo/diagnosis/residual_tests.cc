@@ -100,4 +100,34 @@ double IntegratedAutocorrelationTime(const std::vector<double>& x, int max_lag) 
   return tau;
 }
 
+BinnedDependence CorrelationRatio(const std::vector<double>& r, const std::vector<double>& q, int bins) {
+  BinnedDependence out;
+  std::vector<std::pair<double, double>> pairs;  // (q, r)
+  for (size_t i = 0; i < std::min(r.size(), q.size()); ++i) {
+    if (std::isfinite(r[i]) && std::isfinite(q[i])) pairs.push_back({q[i], r[i]});
+  }
+  if (pairs.size() < static_cast<size_t>(2 * bins) || bins < 2) return out;
+  // by q alone, and equal values of q in one bin (an on/off command has two): sorting the pairs
+  // would order a tie by r and make bins of r itself
+  std::stable_sort(pairs.begin(), pairs.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  double mean = 0;
+  for (const auto& [qi, ri] : pairs) mean += ri;
+  mean /= static_cast<double>(pairs.size());
+  double total = 0, between = 0;
+  for (const auto& [qi, ri] : pairs) total += (ri - mean) * (ri - mean);
+  for (size_t from = 0; from < pairs.size();) {
+    size_t to = std::min(pairs.size(), from + std::max<size_t>(1, pairs.size() / bins));
+    while (to < pairs.size() && pairs[to].first == pairs[to - 1].first) ++to;
+    if (pairs.size() - to < pairs.size() / bins / 2) to = pairs.size();  // no sliver of a last bin
+    double qs = 0, rs = 0;
+    for (size_t i = from; i < to; ++i) qs += pairs[i].first, rs += pairs[i].second;
+    const double n = static_cast<double>(to - from);
+    out.centre.push_back(qs / n), out.mean.push_back(rs / n), out.count.push_back(n);
+    between += n * (rs / n - mean) * (rs / n - mean);
+    from = to;
+  }
+  out.eta2 = total > 0 ? between / total : 0;
+  return out;
+}
+
 }  // namespace pneumatic::diagnosis

@@ -31,6 +31,17 @@ double IntegratedAutocorrelationTime(const std::vector<double>& x, int max_lag);
 // Upper tail of the chi-square distribution with k degrees of freedom.
 double ChiSquareUpperTail(double q, int k);
 
+// The residual r against a state q, by bins of q of equal count: the correlation ratio
+// eta^2 = sum_b n_b (mean_b r - mean r)^2 / sum_i (r_i - mean r)^2 (Pearson 1905; Fisher,
+// "Statistical methods", 1925, sec. 45), the fraction of r's variance that q's bins explain, which
+// catches a dependence of any shape (a dead band, a step at a position), not only a linear one;
+// with each bin's centre (mean q) and mean r, for plots. Pairs where either is NaN are left out.
+struct BinnedDependence {
+  double eta2 = 0;
+  std::vector<double> centre, mean, count;
+};
+BinnedDependence CorrelationRatio(const std::vector<double>& r, const std::vector<double>& q, int bins);
+
 }  // namespace pneumatic::diagnosis
 
 #endif  // PNEUMATIC_DIAGNOSIS_RESIDUAL_TESTS_H_

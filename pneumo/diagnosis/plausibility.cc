@@ -1,0 +1,50 @@
+#include "diagnosis/plausibility.h"
+
+#include <cmath>
+#include <cstdio>
+
+namespace pneumatic::diagnosis {
+namespace {
+
+std::string Fixed(const char* format, double a) {
+  char text[128];
+  std::snprintf(text, sizeof(text), format, a);
+  return text;
+}
+
+}  // namespace
+
+std::string BoundReached(const EffectParameter& p, double value) {
+  const bool log_scale = p.logarithmic && p.lower > 0 && value > 0;
+  const double margin = log_scale ? 0.01 * std::log(p.upper / p.lower) : 0.01 * (p.upper - p.lower);
+  const double below = log_scale ? std::log(value / p.lower) : value - p.lower;
+  const double above = log_scale ? std::log(p.upper / value) : p.upper - value;
+  if (below <= margin) return "at its lower bound";
+  if (above <= margin) return "at its upper bound";
+  return "";
+}
+
+double AbsentValue(const EffectParameter& p) {
+  if (!std::isnan(p.absent)) return p.absent;
+  const bool deviation = !p.logarithmic && (p.nominal != 0 || p.lower < 0);
+  return deviation ? p.nominal : p.lower;
+}
+
+std::string Implausible(const Candidate& c, const std::vector<double>& values, const std::vector<double>& standard_errors) {
+  bool any_present = false;
+  for (size_t i = 0; i < c.parameters.size() && i < values.size() && i < standard_errors.size(); ++i) {
+    const EffectParameter& p = c.parameters[i];
+    const double value = values[i], absent = AbsentValue(p);
+    const std::string bound = BoundReached(p, value);
+    const bool at_absent_end = (bound == "at its lower bound" && absent <= p.lower) || (bound == "at its upper bound" && absent >= p.upper);
+    if (at_absent_end || value == absent) continue;
+    if (!bound.empty()) return p.name + " " + bound + Fixed(" (%.3g ", value) + p.unit + ")";
+    if (!(standard_errors[i] <= std::fabs(value - absent))) {
+      return p.name + " not determined by the data" + Fixed(" (%.3g", value) + Fixed(" +- %.2g ", standard_errors[i]) + p.unit + ")";
+    }
+    any_present = true;
+  }
+  return any_present ? "" : "every parameter at the value of the model without the effect";
+}
+
+}  // namespace pneumatic::diagnosis
