@@ -14,6 +14,8 @@ namespace pneumatic {
 
 struct DiagnoseCommandOptions {
   std::string model_path, train_path, heldout_path, report_dir;
+  // a test log the diagnosis does not see, on which the verdict is graded (GradeOnLog): "" none
+  std::string test_path;
   diagnosis::DiagnoseOptions diagnose;
   bool quiet = false;  // no progress on stderr
 };

@@ -324,7 +324,12 @@ int main(int argc, char** argv) {
       ->required();
   diagnose->add_option("--heldout", diagnose_options.heldout_path,
                        "held-out log (default: the last 30 % of the training log is held out)");
+  diagnose->add_option("--test", diagnose_options.test_path,
+                       "a third log the diagnosis does not see: the verdict's model is graded on it (JSON \"test\")");
   diagnose->add_option("--report", diagnose_options.report_dir, "directory for the HTML report and its PNG plots");
+  diagnose->add_option("--calibration-iterations", diagnose_options.diagnose.calibration_iterations,
+                       "iterations of the calibration of the model's nominal parameters before the effects (0: none)")
+      ->capture_default_str()->check(CLI::Range(0, 200));
   diagnose->add_option("--horizon", diagnose_options.diagnose.horizon_s, "prediction window, s")->capture_default_str()
       ->check(CLI::Range(0.005, 10.0));
   diagnose->add_option("--max-effects", diagnose_options.diagnose.max_effects, "effects searched one after the other")
@@ -333,7 +338,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1, 64));
   diagnose->add_flag("--quiet", diagnose_options.quiet, "no progress on stderr");
   diagnose->footer(
-      "Prints JSON: verdict.{effect, effects, params, heldout_gap_before, heldout_gap_after}, the ranking of every\n"
+      "Prints JSON: verdict.{effect (an effect, none or unexplained), effects, params, calibration, noise_floor,\n"
+      "unexplained, alternatives, heldout_gap_before, heldout_gap_after}, the ranking of every\n"
       "candidate (score = the information criterion dIC), where the gap lies (per signal, regime, over time).\n"
       "README, \"Diagnosis\", defines the gap and the verdict rule.");
 

@@ -1001,5 +1001,53 @@ TEST_F(PneumoBinaryTest, BadPneumaticConfigurationNamesFileAndKey) {
   EXPECT_THAT(run.err, HasSubstr("sonic_conductence"));
 }
 
+
+// issue 55 item 4: the report leads with the verdict and, where physics outside the library is
+// left (a spring on rig C's joint), shows where: the side that fails with its numbers, the
+// residual against the states it depends on and over the stroke (residual.png), by regime
+// (residual_regimes.png); then the calibration and noise-floor tables, then what existed before.
+// On 3 s logs the verdict is an effect that takes up part of the spring or `unexplained`: either
+// way what is left is structured, and comes first.
+TEST_F(PneumoBinaryTest, DiagnoseReportLeadsWithTheVerdictAndShowsWhereTheResidualLies) {
+  std::string xml = ReadText(ShippedModel("rig_per_chamber.xml"));
+  const std::string joint = "damping=\"20\"/>";
+  const size_t at = xml.find(joint);
+  ASSERT_NE(at, std::string::npos);
+  xml.replace(at, joint.size(), "damping=\"20\" stiffness=\"300\"/>");
+  WriteText(Path("spring.xml"), xml);
+  for (const auto& [seed, log] : {std::pair<const char*, const char*>{"1", "train.csv"}, {"2", "held.csv"}}) {
+    Outcome run = Pneumo("generate " + Quote(Path("spring.xml")) + " --duration 3 --seed " + seed + " --out " + Quote(Path(log)));
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+  }
+  Outcome run = Pneumo("diagnose " + Quote(ShippedModel("rig_per_chamber.xml")) + " " + Quote(Path("train.csv")) + " --heldout " +
+                       Quote(Path("held.csv")) + " --max-effects 1 --quiet --report " + Quote(Path("report")));
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  for (const char* png : {"signals.png", "where.png", "residual.png", "residual_regimes.png", "whiteness.png", "ranking_1.png"}) {
+    EXPECT_EQ(ReadText(Path(std::string("report/") + png)).substr(0, 4), "\x89PNG") << png;
+  }
+  // the plots' direction of motion
+  EXPECT_THAT(ReadText(Path("report/series.csv")).substr(0, 200), HasSubstr(",cyl.v.estimated,regime:"));
+
+  const std::string html = ReadText(Path("report/index.html"));
+  const bool unexplained = html.find("<p>Verdict <code>unexplained</code>") != std::string::npos;
+  // in this order: the verdict in words with the gap against the floor, what is left, the
+  // calibration, the floor, the plots and tables there were before
+  const std::vector<std::string> order = {
+      unexplained ? "<div class=\"headline\">Not explained by any effect in the library" : "<div class=\"headline\">Effect found: ",
+      "<p>Verdict <code>", "against the noise floor", "What is left, in words:", "<h2 id=\"unexplained\">What is left unexplained",
+      "Which side of the model fails", "residual.png", "residual_regimes.png", "Calibration of the model's own parameters",
+      "<h2 id=\"floor\">Noise floor", "sensor noise (from the log)", "signals.png", "Where the gap lies", "Candidates, round 1",
+      "whiteness.png"};
+  size_t last = 0;
+  for (const std::string& part : order) {
+    const size_t found = html.find(part);
+    ASSERT_NE(found, std::string::npos) << part;
+    EXPECT_GE(found, last) << part << " is out of order";
+    last = found;
+  }
+  if (!unexplained) EXPECT_THAT(html, HasSubstr("something else is missing too"));
+  // a spring is a force on the piston: the motion from the measured pressures fails
+  EXPECT_THAT(html, HasSubstr("It looks <b>mechanical</b>"));
+}
 }  // namespace
 }  // namespace pneumatic
