@@ -134,7 +134,10 @@ Unexplained DescribeResidual(const Measurements& meas, const GapOptions& g, cons
   text += u.present ? ", and structured." : structured ? ", structured but within the floor's margin." : ", and its residuals do not depend on the states beyond noise.";
   for (const ResidualStructure& r : u.signals) {
     if (!r.structured) continue;
-    text += " " + r.signal + Fixed(": residual %.3g", r.rms) + Fixed(" RMS (systematic part %.1f times its floor)", r.systematic / std::max(r.floor, 1e-300));
+    // in the signal's unit: Pa for a pressure, m (rad on a hinge) for x
+    const std::string kind = r.signal.substr(r.signal.rfind('.') + 1);
+    text += " " + r.signal + Fixed(": residual %.3g", r.rms) + (kind == "x" ? " m (rad on a hinge)" : " Pa") +
+            Fixed(" RMS (systematic part %.1f times its floor)", r.systematic / std::max(r.floor, 1e-300));
     int listed = 0;
     for (const StateDependence& d : r.dependences) {
       if (d.excess <= 0 || listed == 3) break;
