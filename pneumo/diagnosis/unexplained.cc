@@ -150,7 +150,11 @@ Unexplained DescribeResidual(const Measurements& meas, const GapOptions& g, cons
     for (size_t k = 0; k < u.regimes.size(); ++k) text += (k ? ", " : " ") + u.regimes[k].first + Fixed(" (%.1f x the mean)", u.regimes[k].second);
     text += ".";
   }
-  if (!u.side.empty()) {
+  if (!u.side.empty() && !structured) {
+    text += Fixed(" Gaps over their floors: the motion from the measured pressures %.1f", u.mechanical_ratio) +
+            Fixed(", the pressures along the measured motion %.1f", u.pneumatic_ratio) +
+            "; with no structured residual, the split does not point at missing physics.";
+  } else if (!u.side.empty()) {
     text += " It looks " + (u.side == "sensors" ? std::string("like the sensors' side") : u.side) +
             Fixed(": the motion from the measured pressures misses by %.1f times its floor", u.mechanical_ratio) +
             Fixed(", the pressures along the measured motion by %.1f", u.pneumatic_ratio) + Fixed(", the full prediction by %.1f.", u.full_ratio);
