@@ -324,7 +324,7 @@ Regimes ClassifyRegimes(const mjModel* m, const Measurements& meas) {
     // filling / venting / sealed from the rate of the measured pressures (smoothed like v): a
     // chamber is filling above 5 % of the supply-exhaust span per second, venting below -5 %
     const double threshold = 0.05 * (c.info.p_supply - c.info.p_exhaust);
-    const int half = std::max(2, static_cast<int>(std::lround(0.01 / meas.period)));
+    const int half = VelocityHalfWindow(meas.period);
     std::vector<double> rate[2] = {EstimateVelocity(c.signal[kPressureP], meas.period, half),
                                    EstimateVelocity(c.signal[kPressureN], meas.period, half)};
     double v_max = 0;
@@ -852,7 +852,8 @@ Graded GradeOnLog(const std::string& model_path, const Diagnosis& d, const log::
   gap.windows = MakeWindows(meas->rows(), w.horizon, w.warmup);
   const Evaluated before = Evaluate(nominal.get(), SignalModel::Identity(*meas), *meas, gap);
   const Evaluated calibrated = EvaluateScenario(model_path, d.calibration_scenario, *meas, gap);
-  const Evaluated after = EvaluateScenario(model_path, d.verdict_scenario, *meas, gap);
+  // without an effect the verdict's model is the calibrated one
+  const Evaluated after = d.effects.empty() ? calibrated : EvaluateScenario(model_path, d.verdict_scenario, *meas, gap);
   for (const Evaluated* e : {&before, &calibrated, &after}) {
     if (!e->error.empty()) {
       g.error = "the test log cannot be predicted: " + e->error;

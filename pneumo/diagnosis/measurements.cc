@@ -71,9 +71,7 @@ std::optional<Measurements> PrepareMeasurements(const mjModel* m, const log::Log
                   m->opt.timestep);
     return fail(text);
   }
-  // +-10 ms (at least 2 rows) for the velocity estimate: short against the motion of the rigs'
-  // closed loops (bandwidths of a few Hz), long enough to average position noise
-  const int half = std::max(2, static_cast<int>(std::lround(0.01 / out.period)));
+  const int half = VelocityHalfWindow(out.period);
   for (const CylinderInfo& info : cylinders) {
     CylinderSeries c;
     c.info = info;

@@ -4,6 +4,8 @@
 #ifndef PNEUMATIC_DIAGNOSIS_MEASUREMENTS_H_
 #define PNEUMATIC_DIAGNOSIS_MEASUREMENTS_H_
 
+#include <algorithm>
+#include <cmath>
 #include <optional>
 #include <string>
 #include <vector>
@@ -65,6 +67,10 @@ Measurements SliceRows(const Measurements& all, int begin, int end);
 // not a line: a closed loop's fast oscillations (a limit cycle of a few tens of Hz) would bias the
 // slope of a line fitted over the same window.
 std::vector<double> EstimateVelocity(const std::vector<double>& x, double period, int half);
+
+// EstimateVelocity's half window for rows `period` apart: +-10 ms, at least 2 rows (short against
+// the motion of the rigs' closed loops, bandwidths of a few Hz; long enough to average position noise)
+inline int VelocityHalfWindow(double period) { return std::max(2, static_cast<int>(std::lround(0.01 / period))); }
 
 }  // namespace pneumatic::diagnosis
 

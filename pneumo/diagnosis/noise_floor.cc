@@ -59,7 +59,7 @@ Measurements WithAddedNoise(const Measurements& meas, const std::vector<double>&
   Measurements out = meas;
   Gaussian normal(seed);
   // the velocity estimate's window, as PrepareMeasurements has it (measurements.cc)
-  const int half = std::max(2, static_cast<int>(std::lround(0.01 / meas.period)));
+  const int half = VelocityHalfWindow(meas.period);
   for (size_t c = 0; c < out.cylinders.size(); ++c) {
     CylinderSeries& cyl = out.cylinders[c];
     for (int k = 0; k < kSignalsPerCylinder; ++k) {

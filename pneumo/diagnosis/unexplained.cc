@@ -18,7 +18,7 @@ std::string Fixed(const char* format, double a) {
 // the states a residual of cylinder c is tested against, by name, per row
 std::vector<std::pair<std::string, std::vector<double>>> States(const Measurements& meas, const CylinderSeries& c) {
   const std::string& n = c.info.name;
-  const int half = std::max(2, static_cast<int>(std::lround(0.01 / meas.period)));
+  const int half = VelocityHalfWindow(meas.period);
   std::vector<std::pair<std::string, std::vector<double>>> states = {
       {n + ".x", c.signal[kPosition]},
       {n + ".v", c.velocity},
