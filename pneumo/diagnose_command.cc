@@ -514,6 +514,7 @@ nlohmann::json DiagnosisJson(const dg::Diagnosis& d) {
                                   {"rejected", c.rejected.empty() ? nlohmann::json(nullptr) : nlohmann::json(c.rejected)},
                                   {"refinement", c.refinement},
                                   {"with_found_effects", c.with_found_effects},
+                                  {"on_model_as_given", c.on_model_as_given},
                                   {"evaluations", c.evaluations},
                                   {"seconds", c.seconds}});
     }

@@ -1091,6 +1091,7 @@ TEST(DiagnosisEndToEnd, FindsABiasedPressureSensorAndNothingOnACleanLog) {
     std::map<std::string, double> best;  // each effect's best simpler form's dIC
     std::set<std::string> explaining;
     for (const CandidateResult& c : ranking) {
+      if (c.with_found_effects) continue;  // a joint fit of a screened effect (diagnose.h)
       ++(c.refinement ? richer : simple)[c.effect];
       if (c.refinement || std::isnan(c.delta_ic)) continue;
       if (!best.count(c.effect) || c.delta_ic < best[c.effect]) best[c.effect] = c.delta_ic;
@@ -1134,8 +1135,15 @@ TEST(DiagnosisEndToEnd, NamesNoEffectForTheModelsOwnDiscretisationError) {
   ASSERT_EQ(d.error, "");
   EXPECT_TRUE(d.effects.empty()) << d.effects[0];
   ASSERT_EQ(d.rounds.size(), 1u);
-  ASSERT_EQ(d.rounds[0].ranking.size(), 1u);
-  const CandidateResult& payload = d.rounds[0].ranking[0];
+  // the payload is screened on the model as given and, the calibration kept, fitted again together
+  // with it (diagnose.h); neither explains the gap, and the joint fit is the one judged
+  ASSERT_FALSE(d.calibration.empty());
+  ASSERT_EQ(d.rounds[0].ranking.size(), 2u);
+  for (const CandidateResult& c : d.rounds[0].ranking) EXPECT_FALSE(c.explains) << c.form;
+  auto joint = std::find_if(d.rounds[0].ranking.begin(), d.rounds[0].ranking.end(), [](const CandidateResult& c) { return !c.on_model_as_given; });
+  ASSERT_NE(joint, d.rounds[0].ranking.end());
+  const CandidateResult& payload = *joint;
+  EXPECT_TRUE(payload.with_found_effects);
   ASSERT_EQ(payload.status, "fitted");
   // the first two criteria alone would have named it
   EXPECT_LT(payload.delta_ic, o.max_delta_ic);
@@ -1186,10 +1194,10 @@ TEST(DiagnosisFit, RecoversAnOffsetItsGainAlmostTradesFor) {
 // refit both capped at 2 iterations, the offset and gain of a p_N sensor reading 40 kPa low stop
 // short of their truth (above) and leave a structured residual. Before the plausibility rule
 // (diagnosis/plausibility.h), a leak took up part of it in round 2 and the backward step dropped it
-// again once the joint refit had carried the sensor's fit on; now each leak form of round 2 is
-// refused as it is fitted, its leak areas or conductances not determined by the data, and the
-// verdict is the sensor alone without that detour. (The backward step itself is no longer reached
-// by this log.)
+// again once the joint refit had carried the sensor's fit on. Since the sensor is fitted together
+// with the calibration in round 1 (diagnose.h), it leaves the leak nothing to take: every leak
+// form of round 2 shrinks the held-out gap by under 1 % (dIC > 0), or has no leak path the data
+// determine, and the verdict is the sensor alone. (The backward step is not reached by this log.)
 TEST(DiagnosisEndToEnd, RefusesALeakThatOnlyTakesUpWhatCappedFitsLeft) {
   const log::Log train = NoiseFreeLogOfALowPNSensor(3, 40000), held = NoiseFreeLogOfALowPNSensor(4, 40000);
   DiagnoseOptions o;
@@ -1207,7 +1215,7 @@ TEST(DiagnosisEndToEnd, RefusesALeakThatOnlyTakesUpWhatCappedFitsLeft) {
     if (c.effect != "leakage") continue;
     ++leaks;
     EXPECT_FALSE(c.explains) << c.form;
-    EXPECT_NE(c.rejected.find("not determined by the data"), std::string::npos) << c.form << ": " << c.rejected;
+    EXPECT_TRUE(c.improvement < 0.01 || !c.rejected.empty()) << c.form << ": " << c.improvement;
   }
   EXPECT_GE(leaks, 1);
 }

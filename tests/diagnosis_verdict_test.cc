@@ -230,8 +230,13 @@ TEST(Plausibility, RejectsAValueAtItsFarBoundOrOneTheDataDoNotDetermine) {
   EXPECT_EQ(Implausible(c, {1e-8, 1.03}, {1e-9, 0.005}), "");
   // the area at its upper bound: implausible
   EXPECT_NE(Implausible(c, {1e-5, 1.03}, {1e-9, 0.005}).find("piston_leak_area at its upper bound"), std::string::npos);
-  // the gain's standard error larger than its deviation from 1
-  EXPECT_NE(Implausible(c, {1e-8, 1.03}, {1e-9, 0.04}).find("gain not determined"), std::string::npos);
+  // the gain's standard error larger than its deviation from 1 beside a determined area: the area
+  // is the effect, the gain is not shown
+  EXPECT_EQ(Implausible(c, {1e-8, 1.03}, {1e-9, 0.04}), "");
+  // neither determined: nothing the data show
+  EXPECT_NE(Implausible(c, {1e-8, 1.03}, {2e-8, 0.04}).find("not determined"), std::string::npos);
+  // one determined, the other at its far bound: still implausible
+  EXPECT_NE(Implausible(c, {1e-5, 1.03}, {1e-9, 0.04}).find("at its upper bound"), std::string::npos);
   // the area at its lower bound is a leak absent, not a fault; the gain alone is the effect
   EXPECT_EQ(Implausible(c, {1e-12, 1.03}, {1e-6, 0.005}), "");
   // both at the model without the effect: nothing to show

@@ -264,7 +264,11 @@ void Calibrate(const std::string& model_path, const Measurements& train, const G
   out->calibration_status = left_nominal.empty() ? "fitted" : "fitted; at the bound of their plausible range, left at the model's values: " + left_nominal;
   if (calibration.parameters.empty()) return;
   std::vector<ParameterResult> fitted = FittedParameters(calibration, fit);
-  for (size_t i = 0; i < fitted.size(); ++i) calibration.parameters[i].initial = fitted[i].value;
+  for (size_t i = 0; i < fitted.size(); ++i) {
+    calibration.parameters[i].initial = fitted[i].value;
+    say("  " + fitted[i].name + Fixed(": %.4g", calibration.parameters[i].nominal) + Fixed(" -> %.4g ", fitted[i].value) + fitted[i].unit +
+        Fixed(" (%+.1f %%)", 100 * (fitted[i].value / calibration.parameters[i].nominal - 1)));
+  }
   found->push_back({calibration, fitted, true});
 }
 
@@ -278,7 +282,7 @@ std::vector<Alternative> Alternatives(const Diagnosis& d, const DiagnoseOptions&
     if (r.accepted != d.effects.front()) continue;
     const CandidateResult* accepted = nullptr;
     for (const CandidateResult& c : r.ranking) {
-      if (c.effect == r.accepted && c.explains) {
+      if (c.effect == r.accepted && c.explains && !c.on_model_as_given) {
         accepted = &c;
         break;
       }
@@ -286,7 +290,7 @@ std::vector<Alternative> Alternatives(const Diagnosis& d, const DiagnoseOptions&
     if (!accepted) return out;
     std::set<std::string> listed = {accepted->effect};
     for (const CandidateResult& c : r.ranking) {  // ranked by dIC: each effect's best form first
-      if (!c.explains || listed.count(c.effect) || !(c.delta_ic - accepted->delta_ic < options.alternative_delta_ic)) continue;
+      if (!c.explains || c.on_model_as_given || listed.count(c.effect) || !(c.delta_ic - accepted->delta_ic < options.alternative_delta_ic)) continue;
       listed.insert(c.effect);
       out.push_back({c.effect, c.form, c.parameters, c.heldout_gap, c.delta_ic - accepted->delta_ic, DistinguishingExperiment(c.effect)});
     }
@@ -425,15 +429,22 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     say(why.empty() ? Fixed("its discretisation gap (the model's timestep against a quarter of it): %.2g", out.discretisation_gap)
                     : "its discretisation gap is not known (at a quarter of the timestep: " + why + ")");
   }
-  // the verdict rule (diagnose.h): an effect explains a held-out gap `without` -> `with` when its dIC
-  // beats max_delta_ic, it shrinks the gap by min_improvement, and the part it removes is more than
-  // min_discretisation_multiple times the model's discretisation gap
-  // the noise floor (noise_floor.h), once the calibration has set the model; 0 until then
-  double floor = 0;
-  auto explains = [&](double delta_ic, double without, double with) {
-    const double removed = std::sqrt(std::max(0.0, without * without - with * with));
-    return delta_ic < options.max_delta_ic && (without - with) / without >= options.min_improvement &&
-           !(removed <= options.min_discretisation_multiple * out.discretisation_gap) && removed > floor;
+  // the noise floor (noise_floor.h) per signal, once the calibration has set the model; empty until then
+  std::vector<double> signal_floor;
+  // the verdict rule (diagnose.h): an effect explains the held-out gap of a model `reference` when,
+  // with it, the prediction `with` beats reference by dIC < max_delta_ic, shrinks its gap by
+  // min_improvement, and removes more than min_discretisation_multiple times the model's
+  // discretisation gap; and when on some signal the part it removes from `without` (the same model
+  // without the effect: `reference`, or a joint fit's values without it) exceeds that signal's floor
+  auto explains = [&](double delta_ic, const Evaluated& reference, const Evaluated& with, const Evaluated& without) {
+    const double removed = std::sqrt(std::max(0.0, reference.gap * reference.gap - with.gap * with.gap));
+    bool above_floor = signal_floor.empty();
+    for (size_t s = 0; s < signal_floor.size() && s < without.signal_gap.size() && s < with.signal_gap.size(); ++s) {
+      const double a = without.signal_gap[s], b = with.signal_gap[s];
+      above_floor |= std::sqrt(std::max(0.0, a * a - b * b)) > signal_floor[s];
+    }
+    return delta_ic < options.max_delta_ic && (reference.gap - with.gap) / reference.gap >= options.min_improvement &&
+           !(removed <= options.min_discretisation_multiple * out.discretisation_gap) && above_floor;
   };
 
   Evaluated base_held = out.before.full;
@@ -499,13 +510,13 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
       return out;
     }
     out.noise_floor = EstimateNoiseFloor(calibrated.get(), floor_sensors, *held, held_gap, base_held, out.discretisation_gap);
-    floor = out.noise_floor.floor;
+    signal_floor = out.noise_floor.signal_floor;
     for (int s = 0; s < held->signals(); ++s) {
       say("  " + held->SignalLabel(s) + Fixed(": sensor noise %.3g", out.noise_floor.sensor_noise[s]) +
           Fixed(", carried through the windows %.3g", out.noise_floor.carried[s]) + Fixed(", floor %.4f", out.noise_floor.signal_floor[s]) +
           Fixed(" (gap %.4f)", base_held.signal_gap[s]));
     }
-    say(Fixed("noise floor of the held-out log: %.4f", floor) +
+    say(Fixed("noise floor of the held-out log: %.4f", out.noise_floor.floor) +
         (out.noise_floor.error.empty() ? std::string() : " (the sensor noise alone: " + out.noise_floor.error + ")"));
   }
   auto effect_count = [&] { return static_cast<int>(EffectsOf(found_effects).size()); };
@@ -514,7 +525,16 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     Round r;
     r.model_effects = EffectsOf(found_effects);
     const std::vector<std::string>& found = r.model_effects;
-    const Scenario scenario = ScenarioOf(found_effects, -1);
+    // parameters before effects, without masking: the first round of a calibrated diagnosis screens
+    // the candidates on the model as given, and fits the best of them again together with the
+    // calibration, from the model's values (the joint screening below); only those joint fits may
+    // explain the calibrated model's gap. Screened on top of the calibration, an effect finds its
+    // signature already taken up by parameters that stand in for it: on rig A (bench_diagnose)
+    // Coulomb friction found the damping raised 45 % and fitted to nothing, the gas energy equation
+    // found the dead volumes and index moved and made the gap worse, and the diagnosis said `none`.
+    const bool screen_as_given = effect_count() == 0 && !found_effects.empty() && options.refit_iterations > 0;
+    const Scenario scenario = screen_as_given ? Scenario{} : ScenarioOf(found_effects, -1);
+    const Evaluated& screen_reference = screen_as_given ? out.before.full : base_held;
     r.heldout_gap_before = base_held.gap;
     r.effective_samples = EffectiveSamples(base_held, *held, held_gap);
     SignalModel base_sensors;
@@ -552,12 +572,13 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     // a fitted candidate's held-out scores: its gap and improvement on the round's model, and its dIC
     // (k parameters of its own) and whether it explains the gap against a model whose held-out
     // errors are `reference` (the round's model, or the found effects refitted alone)
-    auto score = [&](const Evaluated& ev, double k, const Evaluated& reference, CandidateResult* result) {
+    // (`without`: the prediction without the effect, for the floor criterion; reference if null)
+    auto score = [&](const Evaluated& ev, double k, const Evaluated& reference, CandidateResult* result, const Evaluated* without = nullptr) {
       result->heldout_gap = ev.gap;
-      result->improvement = (base_held.gap - ev.gap) / base_held.gap;
+      result->improvement = (reference.gap - ev.gap) / reference.gap;
       result->delta_ic = r.effective_samples * std::log(ev.residuals.squaredNorm() / reference.residuals.squaredNorm()) +
                          k * std::log(r.effective_samples);
-      result->explains = explains(result->delta_ic, reference.gap, ev.gap) && result->rejected.empty();
+      result->explains = explains(result->delta_ic, reference, ev, without ? *without : reference) && result->rejected.empty();
     };
     auto report = [&](const CandidateResult& result) {
       say("  " + result.effect + ": " + result.status + (result.rejected.empty() ? std::string() : " (rejected: " + result.rejected + ")") +
@@ -573,7 +594,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
       const Candidate c = seeded_from_round(unseeded, &seeded);
       say("round " + std::to_string(round + 1) + ": fitting " + c.effect + " (" + c.form + ")");
       CandidateResult result;
-      result.effect = c.effect, result.form = c.form, result.refinement = c.refinement;
+      result.effect = c.effect, result.form = c.form, result.refinement = c.refinement, result.on_model_as_given = screen_as_given;
       FitOptions fo;
       fo.gap = train_gap;
       // a richer form gets the joint refit's budget: it is fitted once, in a round its simpler form
@@ -596,7 +617,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
         if (!ev.error.empty()) {
           result.status = "failed: on the held-out log: " + ev.error;
         } else {
-          score(ev, static_cast<double>(c.parameters.size()), base_held, &result);
+          score(ev, static_cast<double>(c.parameters.size()), screen_reference, &result);
         }
       }
       result.seconds = Seconds(tc);
@@ -651,7 +672,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     // model, its own parameters counted (the found effects' were counted when they were accepted)
     std::vector<std::vector<double>> found_values(r.ranking.size());  // per entry: the found effects' values, if joint
     const bool none_explains = std::none_of(r.ranking.begin(), r.ranking.end(), [](const CandidateResult& c) { return c.explains; });
-    if (effect_count() > 0 && none_explains && options.refit_iterations > 0) {
+    if (screen_as_given || (effect_count() > 0 && none_explains && options.refit_iterations > 0)) {
       std::vector<size_t> best_form;  // per effect with strong evidence, its form with the lowest dIC, by dIC
       for (size_t i = 0; i < r.ranking.size(); ++i) {
         const CandidateResult& c = r.ranking[i];
@@ -664,7 +685,14 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
         }
       }
       std::sort(best_form.begin(), best_form.end(), [&](size_t a, size_t b) { return r.ranking[a].delta_ic < r.ranking[b].delta_ic; });
-      const Candidate found_joint = JointCandidate(found_effects, -1);
+      // on the model as given, parameters off make many effects look strong: the three best are
+      // fitted with the calibration, from the model's values
+      constexpr size_t kJointFromAsGiven = 3;
+      if (screen_as_given && best_form.size() > kJointFromAsGiven) best_form.resize(kJointFromAsGiven);
+      Candidate found_joint = JointCandidate(found_effects, -1);
+      if (screen_as_given) {
+        for (EffectParameter& p : found_joint.parameters) p.initial = p.nominal;
+      }
       for (size_t i : best_form) {
         const auto tc = std::chrono::steady_clock::now();
         Candidate c = tried[i];
@@ -694,11 +722,15 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
           result.rejected = Implausible(c, std::vector<double>(fit.values.begin() + first, fit.values.end()),
                                         std::vector<double>(fit.conditional_standard_errors.begin() + first, fit.conditional_standard_errors.end()));
           Evaluated ev = EvaluateScenario(model_path, WithCandidate(Scenario{}, joint, fit.values), *held, held_gap);
-          if (!ev.error.empty()) {
-            result.status = "failed: on the held-out log: " + ev.error;
+          // the joint fit's values without the candidate: the part of the gap the candidate itself
+          // removes there (the found effects may have moved back from standing in for it)
+          const Evaluated without = EvaluateScenario(
+              model_path, WithCandidate(Scenario{}, found_joint, std::vector<double>(fit.values.begin(), fit.values.begin() + first)), *held, held_gap);
+          if (!ev.error.empty() || !without.error.empty()) {
+            result.status = "failed: on the held-out log: " + (ev.error.empty() ? without.error : ev.error);
           } else {
             const double k = static_cast<double>(c.parameters.size());
-            score(ev, k, base_held, &result);
+            score(ev, k, base_held, &result, &without);
             // the found effects alone, refitted from the joint fit's values: the candidate may only
             // have led them out of a local minimum of their own fit, and must explain the gap given
             // the better of the two
@@ -711,7 +743,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
                                       : Evaluated{};
               result.evaluations += alone.evaluations;
               say(Fixed("  the found effects alone from its values: held-out gap %.4f", alone.error.empty() && alone_held.error.empty() ? alone_held.gap : kNotComputed));
-              if (alone.error.empty() && alone_held.error.empty() && alone_held.gap < base_held.gap) score(ev, k, alone_held, &result);
+              if (alone.error.empty() && alone_held.error.empty() && alone_held.gap < base_held.gap) score(ev, k, alone_held, &result, &without);
             }
           }
         }
@@ -737,7 +769,8 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     r.ranking = ranked;
     r.accepted = "none";
     for (size_t i = 0; i < r.ranking.size(); ++i) {
-      if (!r.ranking[i].explains) continue;
+      // screened on the model as given, a candidate chose the joint fits; it is no verdict itself
+      if (!r.ranking[i].explains || r.ranking[i].on_model_as_given) continue;
       r.accepted = r.ranking[i].effect;
       if (r.ranking[i].with_found_effects) {  // the found effects take their values of the joint fit
         size_t j = 0;
@@ -773,7 +806,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
         const double ic = r.effective_samples * std::log(base_held.residuals.squaredNorm() / without.residuals.squaredNorm()) +
                           k * std::log(r.effective_samples);
         const double improvement = (without.gap - base_held.gap) / without.gap;
-        const bool kept = explains(ic, without.gap, base_held.gap);
+        const bool kept = explains(ic, without, base_held, without);
         say("  without " + found_effects[e].candidate.effect + Fixed(": held-out gap %.4f", without.gap) +
             Fixed(", its dIC %.1f", ic) + (kept ? ", kept" : ", no longer explains the gap"));
         if (!kept && ic > weakest_ic) weakest = e, weakest_ic = ic, weakest_improvement = improvement;

@@ -31,6 +31,11 @@
 // found where no candidate explains the gap, every effect with strong evidence (dIC <
 // max_delta_ic) is fitted again, in its best form, together with the found effects' parameters
 // and ranked with the rest (the joint screening: a found effect may have taken up part of the next one).
+// Parameters before effects (calibration.h): the model's nominal parameters are fitted first, and
+// every effect is judged against the calibrated model. So that the calibration does not mask an
+// effect it can partly stand in for, the first round screens the candidates on the model as given
+// and fits its three strongest effects again together with the calibration, from the model's
+// values; only those joint fits may explain the calibrated model's gap.
 // How far: the held-out gap before and after, per signal and as one number (effect_fit.h).
 #ifndef PNEUMATIC_DIAGNOSIS_DIAGNOSE_H_
 #define PNEUMATIC_DIAGNOSIS_DIAGNOSE_H_
@@ -85,7 +90,9 @@ struct DiagnoseOptions {
   // training log, with up to this many iterations, before any effect is tried (0: not calibrated)
   int calibration_iterations = 20;
   // the noise floor (noise_floor.h): a gap is "well above" it beyond floor_multiple times it, and
-  // an effect must remove more of the gap than the floor (the part sqrt(before^2 - after^2))
+  // an effect must remove more than the floor on some signal (the part sqrt(before_s^2 - after_s^2)
+  // of that signal's gap against its floor_s: an effect on one signal, a position sensor's offset,
+  // is not diluted by the signals it leaves alone)
   double floor_multiple = 2;
   // two explanations whose dIC differ by less than this are both an answer (Diagnosis::alternatives):
   // short of Kass and Raftery's "very strong" evidence for one over the other
@@ -109,7 +116,7 @@ struct CandidateResult {
   double train_gap = kNotComputed, heldout_gap = kNotComputed;
   double improvement = kNotComputed;  // (gap_before - gap) / gap_before on the held-out log
   double delta_ic = kNotComputed;
-  bool explains = false;  // passes every criterion
+  bool explains = false;  // passes every criterion, against the model it was fitted on
   // why it may not explain the gap whatever its scores: a fitted value at the far bound of its range
   // (implausible), or a parameter the data do not determine (standard error larger than its
   // deviation from the model without the effect); "" if neither (diagnose.cc, Implausible)
@@ -117,6 +124,9 @@ struct CandidateResult {
   bool refinement = false;  // a richer form (Candidate::refinement), fitted because its effect led or was the runner-up
   // fitted together with the found effects' parameters (the joint screening, diagnose.cc)
   bool with_found_effects = false;
+  // screened on the model as given, before the calibration, in the first round of a calibrated
+  // diagnosis: it chooses the effects fitted together with the calibration and is no verdict itself
+  bool on_model_as_given = false;
   int evaluations = 0;
   double seconds = 0;
 };

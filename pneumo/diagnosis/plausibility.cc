@@ -32,6 +32,7 @@ double AbsentValue(const EffectParameter& p) {
 
 std::string Implausible(const Candidate& c, const std::vector<double>& values, const std::vector<double>& standard_errors) {
   bool any_present = false;
+  std::string undetermined;  // the first parameter off the model without the effect by less than its standard error
   for (size_t i = 0; i < c.parameters.size() && i < values.size() && i < standard_errors.size(); ++i) {
     const EffectParameter& p = c.parameters[i];
     const double value = values[i], absent = AbsentValue(p);
@@ -40,11 +41,15 @@ std::string Implausible(const Candidate& c, const std::vector<double>& values, c
     if (at_absent_end || value == absent) continue;
     if (!bound.empty()) return p.name + " " + bound + Fixed(" (%.3g ", value) + p.unit + ")";
     if (!(standard_errors[i] <= std::fabs(value - absent))) {
-      return p.name + " not determined by the data" + Fixed(" (%.3g", value) + Fixed(" +- %.2g ", standard_errors[i]) + p.unit + ")";
+      if (undetermined.empty()) {
+        undetermined = p.name + " not determined by the data" + Fixed(" (%.3g", value) + Fixed(" +- %.2g ", standard_errors[i]) + p.unit + ")";
+      }
+      continue;
     }
     any_present = true;
   }
-  return any_present ? "" : "every parameter at the value of the model without the effect";
+  if (any_present) return "";
+  return undetermined.empty() ? "every parameter at the value of the model without the effect" : undetermined;
 }
 
 }  // namespace pneumatic::diagnosis

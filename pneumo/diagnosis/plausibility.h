@@ -22,12 +22,15 @@ double AbsentValue(const EffectParameter& p);
 // diagnosis passes the conditional ones, CandidateFit::conditional_standard_errors, so that two
 // parameters that trade off are not each called undetermined), may not explain a gap; "" if it
 // may. Not when a value lies at the bound of its range away from the model without the effect (a
-// physically absurd magnitude, or one the range cuts short), nor when a parameter is not
-// determined by the data (its standard error larger than its deviation from the model without the
-// effect). A parameter at the bound that is the model without it (a leak area at
-// its floor, a delay at 0) is absent, not implausible; but a candidate all of whose parameters are
-// absent has nothing to show. (On a rig C log of LuGre friction, before this rule, a valve dead
-// time of 0.1 ms +- 12 ms at its lower bound was accepted after the friction.)
+// physically absurd magnitude, or one the range cuts short), nor when no parameter is determined
+// by the data away from the model without the effect (each one's standard error larger than its
+// deviation from it, or each one at it). A parameter at the bound that is the model without it (a
+// leak area at its floor, a delay at 0) is absent, not implausible, and so is one within its
+// standard error of that value beside a parameter the data do determine: a leak across the piston
+// found with a leak to the atmosphere of 2e-12 +- 4e-12 kg/(s Pa) is a leak across the piston (on
+// rig A, refusing the whole effect for that path refused the laminar leak of bench_diagnose). (On
+// a rig C log of LuGre friction, before this rule, a valve dead time of 0.1 ms +- 12 ms at its
+// lower bound, its only parameter, was accepted after the friction.)
 std::string Implausible(const Candidate& c, const std::vector<double>& values, const std::vector<double>& standard_errors);
 
 }  // namespace pneumatic::diagnosis
