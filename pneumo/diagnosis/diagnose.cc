@@ -272,6 +272,10 @@ void Calibrate(const std::string& model_path, const Measurements& train, const G
   found->push_back({calibration, fitted, true});
 }
 
+// whether a ranked result may be a round's verdict: it explains the gap, and was not only screened
+// on the model as given to choose the joint fits of a calibrated first round
+bool MayBeVerdict(const CandidateResult& c) { return c.explains && !c.on_model_as_given; }
+
 // Explanations as good as the verdict's: in the round that accepted the verdict's first effect,
 // every other effect that explains the gap by the same criteria with a dIC within
 // alternative_delta_ic of the accepted one's (its best form)
@@ -282,7 +286,7 @@ std::vector<Alternative> Alternatives(const Diagnosis& d, const DiagnoseOptions&
     if (r.accepted != d.effects.front()) continue;
     const CandidateResult* accepted = nullptr;
     for (const CandidateResult& c : r.ranking) {
-      if (c.effect == r.accepted && c.explains && !c.on_model_as_given) {
+      if (c.effect == r.accepted && MayBeVerdict(c)) {
         accepted = &c;
         break;
       }
@@ -290,7 +294,7 @@ std::vector<Alternative> Alternatives(const Diagnosis& d, const DiagnoseOptions&
     if (!accepted) return out;
     std::set<std::string> listed = {accepted->effect};
     for (const CandidateResult& c : r.ranking) {  // ranked by dIC: each effect's best form first
-      if (!c.explains || c.on_model_as_given || listed.count(c.effect) || !(c.delta_ic - accepted->delta_ic < options.alternative_delta_ic)) continue;
+      if (!MayBeVerdict(c) || listed.count(c.effect) || !(c.delta_ic - accepted->delta_ic < options.alternative_delta_ic)) continue;
       listed.insert(c.effect);
       out.push_back({c.effect, c.form, c.parameters, c.heldout_gap, c.delta_ic - accepted->delta_ic, DistinguishingExperiment(c.effect)});
     }
@@ -569,9 +573,9 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
       }
       return c;
     };
-    // a fitted candidate's held-out scores: its gap and improvement on the round's model, and its dIC
-    // (k parameters of its own) and whether it explains the gap against a model whose held-out
-    // errors are `reference` (the round's model, or the found effects refitted alone)
+    // a fitted candidate's held-out scores against a model whose held-out errors are `reference` (the
+    // round's model, the model as given, or the found effects refitted alone): its gap, improvement
+    // and dIC (k parameters of its own), and whether it explains the gap
     // (`without`: the prediction without the effect, for the floor criterion; reference if null)
     auto score = [&](const Evaluated& ev, double k, const Evaluated& reference, CandidateResult* result, const Evaluated* without = nullptr) {
       result->heldout_gap = ev.gap;
@@ -769,8 +773,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     r.ranking = ranked;
     r.accepted = "none";
     for (size_t i = 0; i < r.ranking.size(); ++i) {
-      // screened on the model as given, a candidate chose the joint fits; it is no verdict itself
-      if (!r.ranking[i].explains || r.ranking[i].on_model_as_given) continue;
+      if (!MayBeVerdict(r.ranking[i])) continue;
       r.accepted = r.ranking[i].effect;
       if (r.ranking[i].with_found_effects) {  // the found effects take their values of the joint fit
         size_t j = 0;
