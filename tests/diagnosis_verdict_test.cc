@@ -235,7 +235,7 @@ TEST(Plausibility, RejectsAValueAtItsFarBoundOrOneTheDataDoNotDetermine) {
   EXPECT_EQ(Implausible(c, {1e-8, 1.03}, {1e-9, 0.04}), "");
   // neither determined: nothing the data show
   EXPECT_NE(Implausible(c, {1e-8, 1.03}, {2e-8, 0.04}).find("not determined"), std::string::npos);
-  // one determined, the other at its far bound: still implausible
+  // the area at its far bound beside an undetermined gain: still implausible
   EXPECT_NE(Implausible(c, {1e-5, 1.03}, {1e-9, 0.04}).find("at its upper bound"), std::string::npos);
   // the area at its lower bound is a leak absent, not a fault; the gain alone is the effect
   EXPECT_EQ(Implausible(c, {1e-12, 1.03}, {1e-6, 0.005}), "");
