@@ -1,7 +1,7 @@
 // The diagnosis checked on data whose effect was withheld from the model (issue 14, item 3).
 //
 // For rigs A (on/off valves), B (5/3 proportional valve) and C (one valve per chamber) of
-// shared/spec/rigs.md, "real" logs are simulated from the rig with one unmodelled effect switched
+// docs/rigs.md, "real" logs are simulated from the rig with one unmodelled effect switched
 // on (or two, or none), under a position PID at 500 Hz following a multi-sine reference, with
 // sensor noise; the held-out log has another reference and seed. Each pair is diagnosed with the
 // nominal rig, which lacks the effect. Where the project has more than one form of an effect, the
@@ -85,7 +85,7 @@ struct Rig {
 // the truth: MJCF edits, model fields, and a sensor bias on one logged signal
 struct Truth {
   std::string label;                 // what is switched on
-  std::vector<std::string> effects;  // effects.md names
+  std::vector<std::string> effects;  // docs/effects.md names
   std::vector<dg::ModelEdit> edits;
   double added_mass = 0;             // kg on the piston body
   // sensor_bias: the logged `biased` signal is zero + offset + gain (s - zero), zero = p_atm for a

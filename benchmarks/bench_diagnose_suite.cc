@@ -1,7 +1,7 @@
 // The diagnosis graded on logs it was not tuned on (issue 55, item 3).
 //
 // Every case of tests/reference/suite_cases.h is a "real" rig simulated by tests/reference/real_rig.h,
-// a simulator independent of the extension: rigs A, B and C of shared/spec/rigs.md with their
+// a simulator independent of the extension: rigs A, B and C of docs/rigs.md with their
 // parameters drawn around the nominal ones, at most one effect in a form of the suite's own (or one
 // outside the library, whose right verdict is `unexplained`), sensor noise, lag and quantisation,
 // logged at 100 Hz to 1 kHz. For each case the three logs are simulated (training, selection and
@@ -10,7 +10,7 @@
 // which the diagnosis never saw (diagnosis::GradeOnLog: the gap of the model as given and of the
 // verdict's model).
 //
-// A case is right when its verdict is its truth: an effect's name of shared/spec/effects.md, `none`,
+// A case is right when its verdict is its truth: an effect's name of docs/effects.md, `none`,
 // or `unexplained` (then no library effect may be named). A case whose simulation, diagnosis or
 // grading fails, or that runs longer than --timeout, is WRONG (verdict "failed" or "timeout"), never
 // left out: each case runs in a child process of its own, which the runner ends (by its id) at the
@@ -192,7 +192,7 @@ bool IsLibraryEffect(const std::string& name) {
   return name != "none" && name != "unexplained" && name != "failed" && name != "timeout";
 }
 
-// rows and columns of the confusion matrix: effects.md's order, then none, unexplained, failed
+// rows and columns of the confusion matrix: docs/effects.md's order, then none, unexplained, failed
 const std::vector<std::string>& Labels() {
   static const std::vector<std::string> labels = {"valve_delay", "valve_deadband", "friction", "leakage", "heat_transfer",
                                                   "supply_drop", "line_dynamics", "payload", "sensor_bias", "none",

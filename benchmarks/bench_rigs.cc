@@ -1,4 +1,4 @@
-// Benchmark of the pneumatic extension on the three rigs of shared/spec/rigs.md; it prints the
+// Benchmark of the pneumatic extension on the three rigs of docs/rigs.md; it prints the
 // Markdown of the README's "Benchmark" section to stdout (its headings start at ###; progress
 // goes to stderr). It compares the three chamber steps of the MJCF key `step`:
 //   linearized  the shipped model as is (the default): an exponential Rosenbrock step with
@@ -16,7 +16,7 @@
 // reported. The extension's cost per chamber step is (time per step with the extension - time
 // per step without) / 2 chambers.
 //
-// Accuracy: the reference is the independent rigs.md implementation of tests/reference,
+// Accuracy: the reference is the independent docs/rigs.md implementation of tests/reference,
 // integrated with classical RK4 at 1 us over 4 s of the rig's excitation generated with every
 // command held 10 ms (so that every dt below divides the command period). Its log is replayed
 // through the model (pneumatic::Rollout) with the timestep set to dt = 0.5, 1, 2, 5, 10 ms, for
@@ -533,7 +533,7 @@ int main() {
     }
   }
   std::printf("### Accuracy\n\n");
-  std::printf("Reference: the rigs.md equations integrated independently (tests/reference) with classical RK4 "
+  std::printf("Reference: the docs/rigs.md equations integrated independently (tests/reference) with classical RK4 "
               "at %g us over %g s of the rig's excitation (seed %u) with every command held %g ms, so that every "
               "dt divides the command period; it took %.2f s (A), %.2f s (B), %.2f s (C), and the piston used "
               "%.0f %%, %.0f %%, %.0f %% of its half stroke. "

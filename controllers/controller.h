@@ -2,7 +2,7 @@
 //
 // A controller sees only what a real rig's controller sees, the measured signals of each
 // cylinder at its own control ticks, and writes the valve commands of the log format
-// (shared/spec/log_format.md: uP/uN, u, u1..u4 or duty), which the rollout holds until the next
+// (docs/log_format.md: uP/uN, u, u1..u4 or duty), which the rollout holds until the next
 // tick (zero-order hold). Its state is explicit (State/SetState), so a rollout can be saved and
 // resumed, and two controllers built alike with the same state give the same commands.
 #ifndef PNEUMATIC_CONTROLLERS_CONTROLLER_H_

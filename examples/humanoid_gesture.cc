@@ -3,7 +3,7 @@
 //
 // The gesture is written in joint angles (keyframes below, smoothstep between them) and turned into
 // each cylinder's piston position x by the model's own kinematics (mj_forward, then
-// pneumatic::PistonPosition), because the controller's reference is x (log_format.md: `ref`, the
+// pneumatic::PistonPosition), because the controller's reference is x (docs/log_format.md: `ref`, the
 // reference for x). Joints the gesture does not name stay at 0 rad.
 //
 // usage: example_humanoid_gesture [models_mjcf/humanoid_pneumatic.xml] [models_mjcf/humanoid_wave.csv]

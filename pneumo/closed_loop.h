@@ -5,7 +5,7 @@
 // controller reads each cylinder's measured p_P, p_N and x (with optional seeded sensor noise)
 // and its reference, and writes the valve commands, held until the next tick (zero-order hold).
 // The log has one row per tick: the commands of that tick, and the measured p_P, p_N, x, v, p_S
-// and ref sampled at t_k before the tick's commands act (shared/spec/log_format.md). The run
+// and ref sampled at t_k before the tick's commands act (docs/log_format.md). The run
 // starts from the model's first keyframe if it has one, else its reset state (chambers at
 // atmospheric pressure, qpos0). Same options, same log, bit for bit, in any thread.
 #ifndef PNEUMATIC_CLOSED_LOOP_H_

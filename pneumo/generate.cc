@@ -182,7 +182,7 @@ GenerateResult Generate(const mjModel* m, const GenerateOptions& options) {
                 kReferenceSines, kReferenceFreqMin, kReferenceFreqMax, 100 * kReferenceFraction, kFadeIn);
   out.comments.push_back(line);
   out.comments.push_back(
-      "measured columns are instantaneous samples at the row's time, before the row's command acts (log_format.md), not "
+      "measured columns are instantaneous samples at the row's time, before the row's command acts (docs/log_format.md), not "
       "paper 000's 10 ms averages");
   std::snprintf(line, sizeof(line),
                 "sensor noise (Gaussian, seeded): p_P, p_N %g Pa; x %g m; v %g m/s (sqrt(2) x noise / period); uP, uN, "

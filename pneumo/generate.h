@@ -24,7 +24,7 @@
 // levels: a run with noise and one without differ only by noise.
 //
 // Sampling: every measured column is the instantaneous value at the row's time, before the
-// row's command acts (shared/spec/log_format.md), NOT paper 000's average of 200 samples over
+// row's command acts (docs/log_format.md), NOT paper 000's average of 200 samples over
 // the preceding 10 ms period (Section V). The controller uses the same instantaneous but
 // noise-free position: the noise stands for the logging sensors; paper 000's controller sees
 // 200-sample averages, whose white noise is sqrt(200) ~ 14 times smaller.

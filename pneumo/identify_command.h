@@ -12,7 +12,7 @@ namespace pneumatic {
 
 struct IdentifyOptions {
   std::string model_path;       // MJCF with pneumatic cylinders
-  std::string log_path;         // training log (shared/spec/log_format.md)
+  std::string log_path;         // training log (docs/log_format.md)
   std::string out_path;         // PARAMS.json
   std::string heldout_path;     // optional held-out log: one-step fit and drift (paper 000 Figs. 11-13)
   std::string plot_path;        // drift PNG; default: PARAMS.json's path with ".drift.png"

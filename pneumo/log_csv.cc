@@ -1,4 +1,4 @@
-// Reader and writer for the CSV log format of shared/spec/log_format.md.
+// Reader and writer for the CSV log format of docs/log_format.md.
 
 #include "log_csv.h"
 

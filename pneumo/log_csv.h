@@ -1,4 +1,4 @@
-// Reader and writer for the CSV log format of shared/spec/log_format.md.
+// Reader and writer for the CSV log format of docs/log_format.md.
 //
 // One format for everything that records or reads a run of a pneumatic system: the
 // rollout tool, identification, diagnosis and logs exported from real robots. A log is
@@ -31,10 +31,10 @@ struct SignalInfo {
   const char* name;     // e.g. "p_P"
   SignalKind kind;
   const char* unit;     // SI unit, "1" for dimensionless quantities
-  const char* meaning;  // one-line description, from log_format.md
+  const char* meaning;  // one-line description, from docs/log_format.md
 };
 
-// Returns the signals of log_format.md: u, uP, uN, u1..u4, duty, p_P, p_N, x, v, p_S, ref.
+// Returns the signals of docs/log_format.md: u, uP, uN, u1..u4, duty, p_P, p_N, x, v, p_S, ref.
 const std::vector<SignalInfo>& KnownSignals();
 
 // Returns the description of the signal called `name`, or nullptr if there is none.

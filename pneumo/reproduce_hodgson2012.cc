@@ -407,7 +407,7 @@ nlohmann::json ReproduceHodgson2012(const std::string& models_dir, const std::st
   report["done_when"] = done;
 
   report["setup"] = {
-      {"rig", "rig A of shared/spec/rigs.md: " + path},
+      {"rig", "rig A of docs/rigs.md: " + path},
       {"control_rate_hz", kControlRate},
       {"warm_up_s", kWarmUp},
       {"square_frequency_hz", kSquareFrequency},

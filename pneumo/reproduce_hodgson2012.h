@@ -1,6 +1,6 @@
 // `pneumo reproduce hodgson2012`: paper 002's comparison of its 7-mode sliding controller with the
 // 3-mode one of its ref. [17] (controllers/sliding_mode.h), rerun closed loop on rig A
-// (models_mjcf/rig_onoff.xml, shared/spec/rigs.md) with the paper's parameters (Section V:
+// (models_mjcf/rig_onoff.xml, docs/rigs.md) with the paper's parameters (Section V:
 // w = 100 rad/s, xi = 0.5, tau = 40 ms, beta = 3 mm, e_min = 1 mm; (25): kappa = 2,
 // y_d_dot_min = 20 mm/s) at the paper's controller rate, 500 Hz (Section VI; rig A's 2 ms).
 //

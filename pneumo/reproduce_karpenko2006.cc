@@ -434,7 +434,7 @@ nlohmann::json ReproduceKarpenko2006(const std::string& models_dir, const std::s
 
   const KarpenkoPidParams paper;
   report["setup"] = {
-      {"rig", "rig B of shared/spec/rigs.md with paper 001's deadband and friction: " + path},
+      {"rig", "rig B of docs/rigs.md with paper 001's deadband and friction: " + path},
       {"deadband", deadband},
       {"deadband_v", Round(deadband * u_max, 3)},
       {"coulomb_friction_n", coulomb},

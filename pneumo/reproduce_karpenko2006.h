@@ -1,7 +1,7 @@
 // `pneumo reproduce karpenko2006`: paper 001's nonlinear PI position controller
 // (controllers/karpenko_pid.h) rerun closed loop on rig B with the paper's deadband (12 % of the
 // spool range) and seal friction (40 N static, 20 N Coulomb): models_mjcf/rig_proportional_full.xml,
-// at rig B's control rate, 1 kHz (shared/spec/rigs.md; the paper gives none). The paper's gains
+// at rig B's control rate, 1 kHz (docs/rigs.md; the paper gives none). The paper's gains
 // throughout (K_p = 10 V/m, K_i = 26 V/(m s)); nothing below is tuned to its figures.
 //
 // Experiments (each from rig B's reset state: x = 0, both chambers at atmosphere, valve centred):

@@ -391,7 +391,7 @@ nlohmann::json ReproduceLaib2021(const std::string& models_dir, const std::strin
                          {"nrmsod_pct_at_100_hz", Round(at100, 3)},
                          {"pass", at100 < 2}};
   report["setup"] = {
-      {"rig", "rig A of shared/spec/rigs.md (" + path + ") with input=pwm: one duty in [-1, 1], mode 6 for u >= 0, "
+      {"rig", "rig A of docs/rigs.md (" + path + ") with input=pwm: one duty in [-1, 1], mode 6 for u >= 0, "
               "mode 7 for u < 0 (eqs. 12-13); pwm_frequency = 0 is the averaged model of eq. 14"},
       {"nrmsod_signal", "duty u(t) = 0.3 sin(2 pi 10 t) for 1 s from x = 0 with both chambers at 2e5 Pa abs; x every "
                         "1 ms; the same signal on the averaged and switched models, following the sine at every 0.05 ms "

@@ -1,6 +1,6 @@
 // `pneumo reproduce laib2021`: paper 003 (Laib et al., JDSMC 2021) rerun on rig A with its four
 // on/off valves on PWM (input=pwm, models_mjcf/rig_onoff.xml with the four valve commands replaced
-// by one duty, shared/spec/rigs.md).
+// by one duty, docs/rigs.md).
 //
 //   nrmsod_pct[f]  eq. (16), f = 10 .. 200 Hz: the switched model (pwm_frequency = f) against the
 //                  averaged model (pwm_frequency = 0, eq. 14), open loop, the same duty signal

@@ -88,7 +88,7 @@ RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutO
   if (options.duration && !(*options.duration > 0)) return fail("the duration must be positive");
   if (commands) {
     // a log built in memory gets the checks a file gets; each row holds its commands for one
-    // period, so rows must be uniformly spaced (log_format.md)
+    // period, so rows must be uniformly spaced (docs/log_format.md)
     if (std::string problem = log::ValidateLog(*commands, /*uniform_time=*/true); !problem.empty()) {
       return fail("command log: " + problem);
     }

@@ -40,7 +40,7 @@ Design (the project's own choices unless a source is named):
   joint angle, stroke = joint span + 10 deg (5 deg margin each end), x_mid = mid-range. Their "area" is
   the displacement per radian D = T / (6e5 Pa), from the catalogue's theoretical torque T at 6 bar
   (T = D * dp for a vane; the swept volume per radian is the same D).
-* Valves: rig C of shared/spec/rigs.md (paper 000 eq. 3, thin-plate flow): B = 2 mm^2/V,
+* Valves: rig C of docs/rigs.md (paper 000 eq. 3, thin-plate flow): B = 2 mm^2/V,
   U_c = 5.3 V, U_r = 4.7 V, L_c = L_r = 0.05 mm^2, C = 0.72, Z = 0.99, kappa = 1.4, T = 293 K,
   r = 8.31 / 0.029 J/(kg K); p_supply = 6.2e5 Pa, p_exhaust = 1.0e5 Pa (paper 000: 90 psi, room).
   One valve per chamber is as large for a 10 mm as for a 32 mm bore (paper 000 used MPYE throughout).
@@ -71,8 +71,8 @@ from xml.sax.saxutils import quoteattr
 
 # ---------------------------------------------------------------- constants (see the docstring)
 P_SUPPLY = 6.2e5          # Pa abs, paper 000: 90 psi
-P_EXHAUST = 1.0e5         # Pa abs, rigs.md rig C
-TEMPERATURE = 293.0       # K, rigs.md rig C
+P_EXHAUST = 1.0e5         # Pa abs, docs/rigs.md rig C
+TEMPERATURE = 293.0       # K, docs/rigs.md rig C
 GAS_CONSTANT = 8.31 / 0.029   # J/(kg K), paper 000 Table II
 TIMESTEP = 0.001          # s, the project's choice (docstring)
 # the default view of renders and frames (pneumo render, rollout --frames): three-quarters from the front,

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Plot a simulated log against the log it replays (shared/spec/log_format.md).
+"""Plot a simulated log against the log it replays (docs/log_format.md).
 
 usage: plot_replay.py REFERENCE.csv SIMULATED.csv OUT.png [CYLINDER]
 

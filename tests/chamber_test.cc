@@ -198,7 +198,7 @@ TEST(ChamberStep, ExponentialsInVectorLanesMatchTheScalarOnesBitForBit) {
 }
 
 TEST(ChamberStep, SealedChamberFollowsPolytropicLaw) {
-  // no flow: p V^(alpha n) is conserved exactly over any volume path (rigs.md rig B: alpha n = 0.89 * 1.4)
+  // no flow: p V^(alpha n) is conserved exactly over any volume path (docs/rigs.md rig B: alpha n = 0.89 * 1.4)
   CylinderConfig c = ShippedConfig("rig_proportional.xml");
   ChamberModel k = MakeChamberModel(c, 0);
   ValveInputs in;

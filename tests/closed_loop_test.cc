@@ -43,7 +43,7 @@ log::Log StepReference(double target) {
   return ref;
 }
 
-// shared/spec/log_format.md: "A measured column holds the value sampled at this row's time". Every row's
+// docs/log_format.md: "A measured column holds the value sampled at this row's time". Every row's
 // x and v must be the piston's at the row's time, as a full forward pass of the state at that time gives
 // them (mj_step leaves actuator lengths and site positions as they were at the start of its step, one
 // model step old): on a rig (a slide joint) and on the humanoid (hinges, and cylinders pinned between
@@ -122,7 +122,7 @@ TEST(ClosedLoop, ProportionalRigsFollowAStepWithinOneMillimetre) {
   }
 }
 
-// log_format.md's p_S is the supply pressure the valves see: with a reservoir feeding the cylinder
+// docs/log_format.md's p_S is the supply pressure the valves see: with a reservoir feeding the cylinder
 // (supply=NAME: here a tank of 5e-5 m^3, about 10 mid-stroke chambers of rig C, behind a line of half
 // its valve's conductance) it is the reservoir's pressure, charged to the compressor's 6.2e5 Pa at reset,
 // drawn down while a step fills a chamber, never above the compressor, and recovering once the piston

@@ -1149,7 +1149,7 @@ TEST(DiagnosisEndToEnd, NamesNoEffectForTheModelsOwnDiscretisationError) {
   EXPECT_LT(payload.delta_ic, o.max_delta_ic);
   EXPECT_GE(payload.improvement, o.min_improvement);
   EXPECT_FALSE(payload.explains);
-  // a payload in name only: the fitted mass within 1 % of rigs.md's 1.91 kg
+  // a payload in name only: the fitted mass within 1 % of docs/rigs.md's 1.91 kg
   ASSERT_EQ(payload.parameters.size(), 1u);
   EXPECT_NEAR(payload.parameters[0].value, 1.91, 0.0191);
   // the noise-free gap is mostly the discretisation error: the discretisation gap is at least half

@@ -1,4 +1,4 @@
-// The unmodelled effects of shared/spec/effects.md as the extension models them (plugin/README.md,
+// The unmodelled effects of docs/effects.md as the extension models them (plugin/README.md,
 // "Effects"), each checked against numbers with a closed form: a steady state, a conservation law,
 // or the solution of a linear equation. Every effect is off by default; a model that switches it
 // off explicitly steps bit for bit as one that does not mention it.

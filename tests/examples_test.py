@@ -3,16 +3,16 @@
 starts from working code. One check per ctest case:
 
   examples_test.py step_rig EXAMPLE MODELS_DIR
-      example_step_rig on rig A: every printed pressure within [P_E, P_S] of rigs.md, the printed
-      force A (p_P - p_N) (rigs.md's force on the piston), and at the last row the piston near its
-      terminal speed in mode M6, where A (p_P - p_N) = b v (rigs.md's force balance with M dv/dt ~ 0)
+      example_step_rig on rig A: every printed pressure within [P_E, P_S] of docs/rigs.md, the printed
+      force A (p_P - p_N) (docs/rigs.md's force on the piston), and at the last row the piston near its
+      terminal speed in mode M6, where A (p_P - p_N) = b v (docs/rigs.md's force balance with M dv/dt ~ 0)
   examples_test.py humanoid_gesture EXAMPLE MODELS_DIR WORK_DIR
       example_humanoid_gesture writes models_mjcf/humanoid_wave.csv byte for byte: the shipped
       gesture is what the program makes from the shipped model (run from the source tree with
       MODELS_DIR models_mjcf: the file's first comment names the model by the path it was given)
   examples_test.py sweep_seeds SCRIPT PNEUMO MODELS_DIR WORK_DIR
       examples/sweep_seeds.py, 2 seeds of 0.5 s on rig C: both summaries with their chamber pressures
-      within [P_r, P_c] of rigs.md, the two seeds' logs different (their sensor noise), the plot a PNG
+      within [P_r, P_c] of docs/rigs.md, the two seeds' logs different (their sensor noise), the plot a PNG
 
 Exits 1 with what failed.
 """
@@ -22,11 +22,11 @@ import shutil
 import subprocess
 import sys
 
-# rigs.md, rig A
+# docs/rigs.md, rig A
 RIG_A_AREA = 1.814e-4  # m^2, both chambers
 RIG_A_DAMPING = 50.0   # N s/m
 RIG_A_SUPPLY, RIG_A_EXHAUST = 3.0e5, 1.0e5  # Pa absolute
-# rigs.md, rig C
+# docs/rigs.md, rig C
 RIG_C_SUPPLY, RIG_C_EXHAUST = 6.2e5, 1.0e5  # Pa absolute
 
 failures = []

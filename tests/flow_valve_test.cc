@@ -10,7 +10,7 @@
 namespace pneumatic {
 namespace {
 
-// rig A (rigs.md): C_val = 3.4e-9 kg/(s Pa), b = 0.433
+// rig A (docs/rigs.md): C_val = 3.4e-9 kg/(s Pa), b = 0.433
 TEST(FlowIso6358, ChokedFlowIsCvalTimesUpstreamPressure) {
   // paper 002 eq. (4): pd/pu = 1/3 <= b, so Q = C_val pu = 3.4e-9 * 3e5
   FlowLawConstants law = Iso6358Constants(0.433);
@@ -24,13 +24,13 @@ TEST(FlowIso6358, SubsonicFlowFollowsTheEllipse) {
 }
 
 TEST(FlowIso6358, FlowReversesWhenDownstreamIsHigher) {
-  // rigs.md: Q(pu, pd) = -Q(pd, pu)
+  // docs/rigs.md: Q(pu, pd) = -Q(pd, pu)
   FlowLawConstants law = Iso6358Constants(0.433);
   EXPECT_DOUBLE_EQ(MassFlow(law, 3.4e-9, 2e5, 3e5), -MassFlow(law, 3.4e-9, 3e5, 2e5));
   EXPECT_EQ(MassFlow(law, 3.4e-9, 2e5, 2e5), 0.0);
 }
 
-// rig B (rigs.md, paper 001 Table I): gamma = 1.4, R = 287, T = 300, C_d = 0.7, P_cr = 0.2
+// rig B (docs/rigs.md, paper 001 Table I): gamma = 1.4, R = 287, T = 300, C_d = 0.7, P_cr = 0.2
 TEST(FlowSanville, ChokedFlowMatchesPaper001Eq2) {
   // C1 = sqrt(1.4/287 (2/2.4)^6) = 0.0404184; area w x_v = 0.0226 * 1e-3 m^2
   // m = C1 C_d a pu / sqrt(T) = 0.0404184 * 0.7 * 2.26e-5 * 5e5 / sqrt(300) = 0.0184584 kg/s
@@ -44,7 +44,7 @@ TEST(FlowSanville, SubsonicFlowMatchesPaper001Eq2) {
   EXPECT_NEAR(MassFlow(law, 2.26e-5, 5e5, 3e5), 0.018458448214395247 * std::sqrt(0.75), 1e-12);
 }
 
-// rig C (rigs.md, paper 000 Table II): C = 0.72, kappa = 1.4, Z = 0.99, r = 8.31/0.029, T = 293
+// rig C (docs/rigs.md, paper 000 Table II): C = 0.72, kappa = 1.4, Z = 0.99, r = 8.31/0.029, T = 293
 FlowLawConstants RigCThinPlate() { return ThinPlateConstants(0.72, 1.4, 0.99, 8.31 / 0.029, 293); }
 
 TEST(FlowThinPlate, ConstantsMatchPaper000Appendix) {
@@ -117,8 +117,8 @@ ChamberConfig RigCValve() {
 
 TEST(ProportionalValve, AreasMatchPaper000Eq3) {
   // in mm^2: a_c(u) = 0.05 + smax((u - 5.3) 2 - 0.05), smax(y) = (sqrt(y^2 + 1) + y)/2
-  // u = 5: smax(-0.65) = 0.2713430 -> 0.3213430 (rigs.md: about 0.3 mm^2 open near 5 V)
-  // u = 7: smax(3.35) = 3.4230346 -> 3.4730346 (rigs.md: 3.5 mm^2)
+  // u = 5: smax(-0.65) = 0.2713430 -> 0.3213430 (docs/rigs.md: about 0.3 mm^2 open near 5 V)
+  // u = 7: smax(3.35) = 3.4230346 -> 3.4730346 (docs/rigs.md: 3.5 mm^2)
   ChamberConfig k = RigCValve();
   EXPECT_NEAR(ProportionalValveAreas(k, 5).supply, 0.3213430220938282e-6, 1e-16);
   EXPECT_NEAR(ProportionalValveAreas(k, 5).exhaust, 0.3213430220938282e-6, 1e-16);
@@ -156,7 +156,7 @@ TEST(Spool, DeadbandCoversTwelvePercentOfTheSpoolRange) {
 }
 
 TEST(Spool, PositiveSpoolFillsPAndVentsN) {
-  // rigs.md rig B: x_v >= 0 connects supply -> P and N -> exhaust
+  // docs/rigs.md rig B: x_v >= 0 connects supply -> P and N -> exhaust
   CylinderConfig c = Spool(0, 0);
   ValveInputs in;
   in.step = 1e-3, in.command[0] = 2;  // x_v = 0.5 mm, area = 0.0226 * 0.5e-3

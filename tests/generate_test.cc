@@ -27,7 +27,7 @@ using testing::ShippedModel;
 
 constexpr double kDuration = 20;       // s: 2000 rows, ~0.3 s of simulation per run
 constexpr double kPeriod = 0.01;       // s: paper 000's 100 Hz loop
-constexpr double kHalfStroke = 0.05;   // m: rig C, x in [-0.05, 0.05] (rigs.md)
+constexpr double kHalfStroke = 0.05;   // m: rig C, x in [-0.05, 0.05] (docs/rigs.md)
 constexpr double kSupplyMinusExhaust = 6.2e5 - 1.0e5;  // Pa: rig C
 
 std::string Quote(const std::string& s) { return "'" + s + "'"; }
@@ -109,7 +109,7 @@ TEST_F(GenerateTest, LogReadsBackWith100HzRowsForTheDuration) {
   EXPECT_DOUBLE_EQ(log.time.front(), 0);
   EXPECT_NEAR(log.Period(), kPeriod, 1e-12);
   EXPECT_NEAR(log.time.back(), kDuration - kPeriod, 1e-9);
-  // the columns log_format.md asks of a per-chamber rig, the velocity and the controller's reference
+  // the columns docs/log_format.md asks of a per-chamber rig, the velocity and the controller's reference
   for (const char* signal : {"uP", "uN", "p_P", "p_N", "x", "v", "ref"}) EXPECT_GE(log.FindColumn("cyl", signal), 0) << signal;
   // the log says which sampling convention it follows (samples at the row's time, not 10 ms averages)
   std::string comments;

@@ -21,8 +21,8 @@ using testing::ShippedModel;
 
 // paper 000 Section V: 90 psi supply, valves used in 3..7 V
 constexpr double kSupply = 6.2e5;      // Pa abs
-constexpr double kExhaust = 1.0e5;     // Pa abs (rigs.md rig C)
-constexpr double kValveCentre = 5.0;   // V: (U_c + U_r) / 2 of rigs.md rig C, both ports nearly sealed
+constexpr double kExhaust = 1.0e5;     // Pa abs (docs/rigs.md rig C)
+constexpr double kValveCentre = 5.0;   // V: (U_c + U_r) / 2 of docs/rigs.md rig C, both ports nearly sealed
 constexpr double kValveSwing = 2.0;    // V: commands stay in paper 000's 3..7 V
 
 // the dof a cylinder drives: the one entry of its actuator's moment row (-1 if it has none or

@@ -1,4 +1,4 @@
-// Tests of the log reader and writer against shared/spec/log_format.md.
+// Tests of the log reader and writer against docs/log_format.md.
 
 #include "log_csv.h"
 #include "output_file.h"
@@ -33,7 +33,7 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using ::testing::StartsWith;
 
-// the example of log_format.md (rig A)
+// a rig A log in the shape of the example of docs/log_format.md
 constexpr char kExample[] =
     "time,cyl.u1,cyl.u2,cyl.u3,cyl.u4,cyl.p_P,cyl.p_N,cyl.x\n"
     "0.000,1,0,0,1,100000.0,100000.0,0.0\n"

@@ -1,5 +1,5 @@
 // Tests of the diagnosis suite's real rig (tests/reference/real_rig.h) and its case list
-// (tests/reference/suite_cases.h): the base rig against tests/reference's rigs.md simulator, a
+// (tests/reference/suite_cases.h): the base rig against tests/reference's docs/rigs.md simulator, a
 // conservation law, LuGre's static friction, a tube's limit, the step's convergence, determinism.
 #include "real_rig.h"
 
@@ -35,7 +35,7 @@ RigCommand FillP() {
 
 // --- the base rig --------------------------------------------------------------------------------
 
-// Every effect off and rigs.md's numbers: the real rig is rigs.md's rig, as tests/reference
+// Every effect off and docs/rigs.md's numbers: the real rig is docs/rigs.md's rig, as tests/reference
 // integrates it (same RK4 step), over 0.5 s of that simulator's own excitation.
 TEST(RealRig, EffectFreeNominalRigMatchesTheReference) {
   for (Rig rig : kRigs) {

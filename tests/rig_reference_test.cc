@@ -1,5 +1,5 @@
 // Tests of the independent rig reference (tests/reference/rig_reference.h) against numbers
-// worked out by hand from shared/spec/rigs.md.
+// worked out by hand from docs/rigs.md.
 #include "rig_reference.h"
 
 #include <gtest/gtest.h>
@@ -24,7 +24,7 @@ std::string RigName(Rig rig) {
   return "?";
 }
 
-// rig C thin-plate flow a * phi(pu, pd) with rigs.md's constants
+// rig C thin-plate flow a * phi(pu, pd) with docs/rigs.md's constants
 double RigCFlow(const RigParams& p, double area, double pu, double pd) {
   return FlowThinPlate(area, p.polytropic_index, p.discharge_coefficient, p.molar_mass,
                        p.universal_gas_constant, p.compressibility, p.temperature, pu, pd);
@@ -113,11 +113,11 @@ TEST(Flow, ThinPlateChokedSubsonicReversed) {
 TEST(Flow, ValveAreasPaper000) {
   const RigParams c = DefaultParams(Rig::kPerChamber);
   // a_c(5) = 0.05 + smax(-0.6 - 0.05) mm^2 = 0.05 + (sqrt(1.4225) - 0.65)/2 = 0.3213 mm^2
-  EXPECT_NEAR(SupplyPortArea(c, 5.0) * 1e6, 0.32, 0.005);  // rigs.md: "about 0.3 mm^2"
+  EXPECT_NEAR(SupplyPortArea(c, 5.0) * 1e6, 0.32, 0.005);  // docs/rigs.md: "about 0.3 mm^2"
   EXPECT_NEAR(SupplyPortArea(c, 5.0) * 1e6, 0.3213430220938282, 1e-12);
   EXPECT_NEAR(ExhaustPortArea(c, 5.0) * 1e6, 0.3213430220938282, 1e-12);
   // a_c(7) = 0.05 + smax(3.4 - 0.05) = 0.05 + (sqrt(12.2225) + 3.35)/2 = 3.4730 mm^2
-  EXPECT_NEAR(SupplyPortArea(c, 7.0) * 1e6, 3.47, 0.005);  // rigs.md: "3.5 mm^2"
+  EXPECT_NEAR(SupplyPortArea(c, 7.0) * 1e6, 3.47, 0.005);  // docs/rigs.md: "3.5 mm^2"
   EXPECT_NEAR(SupplyPortArea(c, 7.0) * 1e6, 3.473034610641334, 1e-12);
   EXPECT_NEAR(ExhaustPortArea(c, 3.0) * 1e6, 3.473034610641334, 1e-12);
   // far closed side tends to the leakage 0.05 mm^2 from above

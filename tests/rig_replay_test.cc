@@ -1,5 +1,5 @@
 // Open-loop replay of the rigs against the independent fine-step reference of
-// rigs.md: the acceptance numbers.
+// docs/rigs.md: the acceptance numbers.
 #include <cmath>
 #include <cstdint>
 #include <map>
@@ -146,9 +146,9 @@ TEST_P(RigReplay, OpenLoopAtOneMillisecondStepsWithinMeasuredBounds) {
   // model's own (the follow-motion test below). Measured (x86-64, gcc), in % of supply - exhaust / mm:
   //   default excitation, seed 1: A 1.01 / 0.77, B 0.27 / 0.45, C 0.39 / 0.33;
   //   fast switching, worst of seeds 1-3: A 5.9 / 5.5, B 0.64 / 2.7, C 2.1 / 1.7.
-  // The bounds are those figures with 25-35 % to spare. Rig A's 7 mm under fast switching is rigs.md's
+  // The bounds are those figures with 25-35 % to spare. Rig A's 7 mm under fast switching is docs/rigs.md's
   // figure for this pressure step with b v implicit; with the volume along Euler's own path, implicit
-  // damping included, seeds 1-3 measure 4.5, 0.84 and 5.5 mm. rigs.md's ~1.3 mm with b v explicit is
+  // damping included, seeds 1-3 measure 4.5, 0.84 and 5.5 mm. docs/rigs.md's ~1.3 mm with b v explicit is
   // not reached: a diagnostic replay with b v explicit (damping moved to qfrc_passive) measures 4.4,
   // 0.92 and 5.1 mm on the same logs, so this excitation, not the damping, sets the figure
   struct Bounds {

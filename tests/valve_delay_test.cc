@@ -1,4 +1,4 @@
-// valve_delay of shared/spec/effects.md for the proportional valves (plugin/README.md, "valve_delay"):
+// valve_delay of docs/effects.md for the proportional valves (plugin/README.md, "valve_delay"):
 // the per-chamber valves' spool lag (spool_time_constant, paper 001 eq. 1's lag applied to each chamber's
 // valve of paper 000) and the dead time of both proportional valve kinds (spool_dead_time, the (1,2) Pade
 // approximant of exp(-s T)), each checked against numbers derived by hand or integrated independently.

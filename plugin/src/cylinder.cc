@@ -383,7 +383,7 @@ ValveInputs Cylinder::ReadValves(const mjModel* m, const mjData* d, bool zero_co
 
 VolumePath Cylinder::Volume(int chamber, double x, double x_rate) const {
   const ChamberConfig& k = config_.chamber[chamber];
-  // chamber P grows with x, chamber N shrinks (rigs.md volumes)
+  // chamber P grows with x, chamber N shrinks (docs/rigs.md volumes)
   double sign = chamber == 0 ? 1.0 : -1.0;
   VolumePath v;
   v.dead_volume = k.dead_volume;
@@ -405,7 +405,7 @@ void Cylinder::ReadChamberPressures(const mjModel* m, const mjData* d, double p0
 }
 
 double Cylinder::ChamberGain(const mjData* d, int chamber) const {
-  // force A_P (p_P - p_atm) - A_N (p_N - p_atm) on the piston, rigs.md; paper 001 eq. (1), times dx/dq
+  // force A_P (p_P - p_atm) - A_N (p_N - p_atm) on the piston, docs/rigs.md; paper 001 eq. (1), times dx/dq
   double arm = HingeSitesGeometry(d, info_).arm;
   return chamber == 0 ? config_.chamber[0].area * arm : -config_.chamber[1].area * arm;
 }
@@ -673,7 +673,7 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
 }
 
 void Cylinder::WriteGains(mjModel* m) const {
-  // force A_P (p_P - p_atm) - A_N (p_N - p_atm), rigs.md; paper 001 eq. (1)
+  // force A_P (p_P - p_atm) - A_N (p_N - p_atm), docs/rigs.md; paper 001 eq. (1)
   for (const auto& [id, role] : actuators_) {
     // mount=hinge_sites: times the lever arm, which changes with the angle (ChamberGain, the gain callback)
     if (role.role == Role::kChamber && config_.mount == Mount::kHingeSites) continue;

@@ -134,7 +134,7 @@ inline double MassFlow(const FlowLawConstants& law, double opening, double p_fro
   // negative absolute pressures are unphysical: treat them as vacuum
   p_from = std::max(p_from, 0.0);
   p_to = std::max(p_to, 0.0);
-  // reversed flow, rigs.md: Q(pu, pd) = -Q(pd, pu); paper 000 eq. (1b)
+  // reversed flow, docs/rigs.md: Q(pu, pd) = -Q(pd, pu); paper 000 eq. (1b)
   double d_pu = 0, d_pd = 0;
   if (p_from >= p_to) {
     double q = flow_detail::ForwardFlow(law, opening, p_from, p_to, &d_pu, &d_pd);

@@ -257,7 +257,7 @@ PortOpenings PortSchedule::Varying(double tau) const {
     } else if (c.spool_time_constant > 0) {
       spool += (spool_start_ - spool_target_) * std::exp(-tau / c.spool_time_constant);
     }
-    // x_v >= 0: supply -> P and N -> exhaust; x_v < 0 the reverse (rigs.md rig B)
+    // x_v >= 0: supply -> P and N -> exhaust; x_v < 0 the reverse (docs/rigs.md rig B)
     double area = c.orifice_gradient * SpoolOpening(c, spool);
     double toward_p = std::max(area, 0.0), toward_n = std::max(-area, 0.0);
     return chamber_ == 0 ? PortOpenings{toward_p, toward_n} : PortOpenings{toward_n, toward_p};

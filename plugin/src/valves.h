@@ -135,7 +135,7 @@ inline PortOpenings ProportionalValveAreas(const ChamberConfig& k, double u, dou
   return a;
 }
 
-// effective spool opening (m) after the deadband; paper 001, rigs.md rig B
+// effective spool opening (m) after the deadband; paper 001, docs/rigs.md rig B
 double SpoolOpening(const CylinderConfig& c, double spool_position);
 
 // The openings of one chamber's ports on [0, h], piecewise in time.

@@ -28,7 +28,7 @@
 
 namespace pneumatic::diagnosis {
 
-// The calibration as a candidate ("calibration", not an effects.md name): its parameters start at
+// The calibration as a candidate ("calibration", not a docs/effects.md name): its parameters start at
 // the model's values. Empty parameters if the model has none of them.
 Candidate CalibrationCandidate(const mjModel* m, const Measurements& meas);
 

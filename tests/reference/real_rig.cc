@@ -13,7 +13,7 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kTimeTolerance = 1e-12;  // s: breakpoints closer than this are the same instant
 constexpr double kContactRamp = 20e-6;    // m: a contact's damping grows in over this penetration
 
-// the specific gas constant: r (A), R (B), Rg / Mm (C): rigs.md
+// the specific gas constant: r (A), R (B), Rg / Mm (C): docs/rigs.md
 double SpecificGasConstant(const RigParams& r) {
   return r.rig == Rig::kPerChamber ? r.universal_gas_constant / r.molar_mass : r.gas_constant;
 }
@@ -31,7 +31,7 @@ struct Inflow {
 };
 
 // A flow law evaluated at the rig's temperature t_ref, corrected to its upstream gas's temperature:
-// every law of rigs.md passes a mass flow proportional to 1 / sqrt(T_upstream) at given pressures
+// every law of docs/rigs.md passes a mass flow proportional to 1 / sqrt(T_upstream) at given pressures
 // (paper 001 eq. 2, paper 000 eq. 1, ISO 6358's sqrt(T0 / T1)). q_ref > 0 flows from a to b.
 double AtUpstreamTemperature(double q_ref, double t_ref, double t_a, double t_b) {
   const double t_up = q_ref > 0 ? t_a : t_b;
@@ -81,7 +81,7 @@ RealRigParams NominalRealRig(Rig rig) {
   RealRigParams p;
   p.rig = DefaultParams(rig);
   p.dead_volume_P = p.dead_volume_N = p.rig.dead_volume;
-  p.flow_gamma = p.rig.polytropic_index;  // rigs.md uses one gamma (B) or kappa (C) for both
+  p.flow_gamma = p.rig.polytropic_index;  // docs/rigs.md uses one gamma (B) or kappa (C) for both
   return p;
 }
 
@@ -179,7 +179,7 @@ void RealRig::Hold(double t) {
       break;
     }
     case Rig::kProportional: {
-      // sat(u): rigs.md rig B; then the play operator (hysteresis, real_rig.h)
+      // sat(u): docs/rigs.md rig B; then the play operator (hysteresis, real_rig.h)
       const double u = std::clamp(c.u, -r.voltage_limit, r.voltage_limit);
       play_u_ = Play(play_u_, u, p_.hysteresis.half_width);
       held_u_ = p_.hysteresis.half_width > 0 ? play_u_ : u;
@@ -275,12 +275,12 @@ RealRig::State RealRig::Derivative(const State& s, double t) const {
   const bool heat = p_.heat.on, tube = p_.tube.volume > 0;
   const int segments = p_.tube.segments;
 
-  // volumes V_P = A_P (L/2 + x) + V0_P, V_N = A_N (L/2 - x) + V0_N: rigs.md, a dead volume per chamber
+  // volumes V_P = A_P (L/2 + x) + V0_P, V_N = A_N (L/2 - x) + V0_N: docs/rigs.md, a dead volume per chamber
   const double vol_P = r.area_P * (0.5 * r.stroke + x) + p_.dead_volume_P;
   const double vol_N = r.area_N * (0.5 * r.stroke - x) + p_.dead_volume_N;
   const double dvol_P = r.area_P * v, dvol_N = -r.area_N * v;
   const double temp_P = heat ? s[kTP] : temp, temp_N = heat ? s[kTN] : temp;
-  // the valves' supply: the manifold (supply_drop) or rigs.md's constant P_S
+  // the valves' supply: the manifold (supply_drop) or docs/rigs.md's constant P_S
   const double ps = p_.supply.on ? s[kManifold] : r.supply_pressure;
   // each valve's port: the tube's first segment, or the chamber itself
   const double port_P = tube ? s[kTubeP] : s[kPP], port_N = tube ? s[kTubeN] : s[kPN];
@@ -302,7 +302,7 @@ RealRig::State RealRig::Derivative(const State& s, double t) const {
   };
   switch (r.rig) {
     case Rig::kOnOff: {
-      // four on/off valves, Q_P = U1 Q(P_S, P_P) - U2 Q(P_P, P_E), Q_N likewise: rigs.md rig A;
+      // four on/off valves, Q_P = U1 Q(P_S, P_P) - U2 Q(P_P, P_E), Q_N likewise: docs/rigs.md rig A;
       // paper 002 eqs. (3), (4); U_i the armature's opening fraction (real_rig.h ValveTiming)
       double open[4];
       for (int i = 0; i < 4; ++i) {
@@ -316,7 +316,7 @@ RealRig::State RealRig::Derivative(const State& s, double t) const {
       break;
     }
     case Rig::kProportional: {
-      // spool: rigs.md's lag dx_v/dt = (k_v u - x_v) / tau_v, or the suite's second-order spool
+      // spool: docs/rigs.md's lag dx_v/dt = (k_v u - x_v) / tau_v, or the suite's second-order spool
       const double target = r.spool_gain * held_u_;
       const ValveTiming& vt = p_.timing;
       if (vt.spool_natural_frequency > 0) {
@@ -329,7 +329,7 @@ RealRig::State RealRig::Derivative(const State& s, double t) const {
       // deadband x_eff = sign(x_v) max(|x_v| - db k_v 5 V, 0): rig_reference.cc (paper 001)
       const double half_band = r.spool_deadband * r.spool_gain * r.voltage_limit;
       const double x_eff = std::copysign(std::max(std::fabs(s[kSpool]) - half_band, 0.0), s[kSpool]);
-      // a = C_d w |x_v|, m = C1 a pu / sqrt(T) psi: rigs.md rig B; paper 001 eq. (2)
+      // a = C_d w |x_v|, m = C1 a pu / sqrt(T) psi: docs/rigs.md rig B; paper 001 eq. (2)
       const double area = r.discharge_coefficient * r.area_gradient * std::fabs(x_eff) * gain;
       auto m = [&](double pu, double pd) {
         return FlowSanville(area, temp, p_.flow_gamma, r.gas_constant, r.spool_critical_ratio, pu, pd);
@@ -351,7 +351,7 @@ RealRig::State RealRig::Derivative(const State& s, double t) const {
         d[kVoltP] = (held_uP_ - s[kVoltP]) / lag;
         d[kVoltN] = (held_uN_ - s[kVoltN]) / lag;
       }
-      // Q = a_c(u) phi(P_c, p) - a_r(u) phi(p, P_r): rigs.md rig C; paper 000 eqs. (1)-(3)
+      // Q = a_c(u) phi(P_c, p) - a_r(u) phi(p, P_r): docs/rigs.md rig C; paper 000 eqs. (1)-(3)
       auto phi = [&](double area, double pu, double pd) {
         return FlowThinPlate(area * gain, p_.flow_gamma, r.discharge_coefficient, r.molar_mass, r.universal_gas_constant,
                              r.compressibility, temp, pu, pd);
@@ -367,7 +367,7 @@ RealRig::State RealRig::Derivative(const State& s, double t) const {
   Inflow into_P, into_N;
   if (tube) {
     // the tube's segments, each a rigid volume of the chambers' polytropic gas,
-    // dp_j/dt = k r T / V_j (Q_in - Q_out) (rigs.md's chamber law at a fixed volume), joined by
+    // dp_j/dt = k r T / V_j (Q_in - Q_out) (docs/rigs.md's chamber law at a fixed volume), joined by
     // 1/n of the tube's restriction (real_rig.h Tube)
     SeriesRestriction segment = p_.tube.restriction;
     segment.laminar *= segments;
@@ -411,7 +411,7 @@ RealRig::State RealRig::Derivative(const State& s, double t) const {
 
   // chambers
   if (!heat) {
-    // dp/dt = k r T / V Q - k p / V dV/dt: rigs.md rig A (paper 002 eq. 1), rig C (paper 000 eq. 4);
+    // dp/dt = k r T / V Q - k p / V dV/dt: docs/rigs.md rig A (paper 002 eq. 1), rig C (paper 000 eq. 4);
     // rig B with its work factor alpha on the second term (paper 001 eq. 1)
     const double work = r.rig == Rig::kProportional ? r.work_factor : 1;
     d[kPP] = k * r_gas * temp / vol_P * into_P.mass - work * k * s[kPP] / vol_P * dvol_P;
@@ -445,7 +445,7 @@ RealRig::State RealRig::Derivative(const State& s, double t) const {
     d[kManifold] = r_gas * temp / sup.manifold_volume * (hose - drawn);
   }
 
-  // mechanics: M dv/dt = A (P_P - P_N) - b v (rigs.md rigs A, B; equal areas) or
+  // mechanics: M dv/dt = A (P_P - P_N) - b v (docs/rigs.md rigs A, B; equal areas) or
   // A_P (p_P - P_r) - A_N (p_N - P_r) - b v (rig C), plus the effects' forces
   const double pressure_force = r.rig == Rig::kPerChamber
                                     ? r.area_P * (s[kPP] - pe) - r.area_N * (s[kPN] - pe)

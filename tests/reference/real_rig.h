@@ -1,8 +1,8 @@
 // A "real rig" for the diagnosis suite (issue 55, item 3): the three benchmark rigs of
-// shared/spec/rigs.md as a robot in a lab would have them, with the unmodelled effects of
-// shared/spec/effects.md, effects that no library holds, parameters off their nominal values and
+// docs/rigs.md as a robot in a lab would have them, with the unmodelled effects of
+// docs/effects.md, effects that no library holds, parameters off their nominal values and
 // sensors with noise, lag and quantisation. Written apart from the extension and its diagnosis: it
-// includes nothing from plugin/ or pneumo/, only rig_reference.h for the flow laws of rigs.md and
+// includes nothing from plugin/ or pneumo/, only rig_reference.h for the flow laws of docs/rigs.md and
 // its parameter struct, and every effect is in a form of its own, not one of the diagnosis'
 // candidates (pneumo/diagnosis/candidates.cc; the form of each is stated below and in real_rig.cc).
 //
@@ -43,7 +43,7 @@ struct SeriesRestriction {
 // at temperature t (K)
 double SeriesRestrictionFlow(const SeriesRestriction& r, double r_gas, double t, double p1, double p2);
 
-// --- effects of effects.md (the right verdict is the effect's name) --------------------------------
+// --- effects of docs/effects.md (the right verdict is the effect's name) --------------------------------
 
 // friction: the LuGre model of Canudas de Wit, Olsson, Astrom and Lischinsky (IEEE TAC 40, 1995),
 // eqs. (1)-(4), with its velocity-dependent micro-damping (their eq. 8) and a Stribeck curve of
@@ -103,13 +103,13 @@ struct SupplySystem {
 // - rig A: the armature of each on/off valve starts to move only after an opening (closing) delay
 //   with the coil energised (de-energised) all along, so a pulse shorter than the delay is lost, and
 //   then opens (closes) its conductance linearly over a travel time (the candidate switches at once);
-// - rig B: a second-order spool, x_v'' = w^2 (k_v u - x_v) - 2 zeta w x_v', instead of rigs.md's lag;
-// - rig C: each valve's voltage behind a first-order lag (rigs.md's valve has none).
+// - rig B: a second-order spool, x_v'' = w^2 (k_v u - x_v) - 2 zeta w x_v', instead of docs/rigs.md's lag;
+// - rig C: each valve's voltage behind a first-order lag (docs/rigs.md's valve has none).
 struct ValveTiming {
   double command_delay = 0;                     // s
   double open_delay = 0, close_delay = 0;       // s, rig A
   double open_travel = 0, close_travel = 0;     // s, rig A: 0 switches the conductance at once
-  double spool_natural_frequency = 0;           // rad/s, rig B (0: rigs.md's first-order spool)
+  double spool_natural_frequency = 0;           // rad/s, rig B (0: docs/rigs.md's first-order spool)
   double spool_damping_ratio = 0.7;             // 1, rig B
   double voltage_lag = 0;                       // s, rig C (0: none)
 };
@@ -183,7 +183,7 @@ struct PartialSpring {
 // --- the real rig ---------------------------------------------------------------------------------
 
 struct RealRigParams {
-  RigParams rig;  // rigs.md's physics, perturbed (rig.dead_volume is not used: the two below are)
+  RigParams rig;  // docs/rigs.md's physics, perturbed (rig.dead_volume is not used: the two below are)
   double dead_volume_P = 0, dead_volume_N = 0;  // m^3
   // the flow laws' ratio of specific heats (rig B's C1, rig C's thin plate): the gas's, not the
   // chambers' polytropic index, so that perturbing the latter leaves the valves alone
@@ -207,7 +207,7 @@ struct RealRigParams {
   PartialSpring spring;
 };
 
-// rigs.md's rig with every effect off: per-chamber dead volumes V0, flow_gamma = the rig's index
+// docs/rigs.md's rig with every effect off: per-chamber dead volumes V0, flow_gamma = the rig's index
 RealRigParams NominalRealRig(Rig rig);
 
 // The sensors: a first-order lag on each pressure sensor, then Gaussian noise; the position

@@ -1,4 +1,4 @@
-// A reference simulation of rigs.md written as a log of log_format.md, so it
+// A reference simulation of docs/rigs.md written as a log of docs/log_format.md, so it
 // can be replayed through a model exactly as a real robot's log would be.
 #ifndef PNEUMATIC_TESTS_REFERENCE_LOG_H_
 #define PNEUMATIC_TESTS_REFERENCE_LOG_H_
@@ -26,7 +26,7 @@ inline const char* RigModelFile(Rig rig) {
 }
 
 // samples of Simulate() as a log of cylinder "cyl": the rig's commands, then p_P, p_N, x, v
-// the rig's commands by log signal (log_format.md): u1..u4 on rig A, u on B, uP and uN on C
+// the rig's commands by log signal (docs/log_format.md): u1..u4 on rig A, u on B, uP and uN on C
 inline std::vector<std::pair<std::string, double>> NamedCommands(Rig rig, const RigCommand& c) {
   switch (rig) {
     case Rig::kOnOff: return {{"u1", c.u1}, {"u2", c.u2}, {"u3", c.u3}, {"u4", c.u4}};
@@ -38,7 +38,7 @@ inline std::vector<std::pair<std::string, double>> NamedCommands(Rig rig, const 
 
 inline log::Log ToLog(Rig rig, const std::vector<Sample>& samples) {
   log::Log out;
-  out.comments.push_back(std::string("reference: rigs.md, fine-step RK4; rig: models_mjcf/") + RigModelFile(rig));
+  out.comments.push_back(std::string("reference: docs/rigs.md, fine-step RK4; rig: models_mjcf/") + RigModelFile(rig));
   for (const auto& [signal, value] : NamedCommands(rig, RigCommand{})) out.columns.push_back({"cyl", signal});
   for (const char* m : {"p_P", "p_N", "x", "v"}) out.columns.push_back({"cyl", m});
   out.values.assign(out.columns.size(), {});

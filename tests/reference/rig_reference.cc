@@ -1,5 +1,5 @@
-// Independent reference implementation of shared/spec/rigs.md (see rig_reference.h).
-// Written straight from rigs.md; only the C++ standard library is used.
+// Independent reference implementation of docs/rigs.md (see rig_reference.h).
+// Written straight from docs/rigs.md; only the C++ standard library is used.
 #include "rig_reference.h"
 
 #include <algorithm>
@@ -13,7 +13,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// rigs.md "every flow law is written for Pu >= Pd ... Q(Pu, Pd) = -Q(Pd, Pu)"
+// docs/rigs.md "every flow law is written for Pu >= Pd ... Q(Pu, Pd) = -Q(Pd, Pu)"
 template <typename Law>
 double Reversible(double pu, double pd, Law law) {
   if (pu >= pd) return law(pu, pd);
@@ -29,7 +29,7 @@ RigParams DefaultParams(Rig rig) {
   RigParams p;
   p.rig = rig;
   switch (rig) {
-    // rigs.md rig A table (papers 002, 003)
+    // docs/rigs.md rig A table (papers 002, 003)
     case Rig::kOnOff:
       p.stroke = 0.1;
       p.area_P = p.area_N = 1.814e-4;
@@ -45,7 +45,7 @@ RigParams DefaultParams(Rig rig) {
       p.valve_critical_ratio = 0.433;
       p.control_period = 2e-3;
       break;
-    // rigs.md rig B table (paper 001)
+    // docs/rigs.md rig B table (paper 001)
     case Rig::kProportional:
       p.stroke = 0.5;
       p.area_P = p.area_N = 10.6e-4;
@@ -66,7 +66,7 @@ RigParams DefaultParams(Rig rig) {
       p.voltage_limit = 5.0;
       p.control_period = 1e-3;
       break;
-    // rigs.md rig C table (paper 000)
+    // docs/rigs.md rig C table (paper 000)
     case Rig::kPerChamber:
       p.stroke = 0.1;
       p.area_P = 7.854e-5;
@@ -95,7 +95,7 @@ RigParams DefaultParams(Rig rig) {
 
 double ControlPeriod(Rig rig) { return DefaultParams(rig).control_period; }
 
-// iso 6358 valve: rigs.md rig A; paper 002 eq. (4)
+// iso 6358 valve: docs/rigs.md rig A; paper 002 eq. (4)
 double FlowIso6358(double c_val, double b_crit, double pu, double pd) {
   return Reversible(pu, pd, [&](double hi, double lo) {
     if (hi <= 0.0) return 0.0;
@@ -108,13 +108,13 @@ double FlowIso6358(double c_val, double b_crit, double pu, double pd) {
 
 namespace {
 
-// c1 = sqrt(g/R (2/(g+1))^((g+1)/(g-1))): rigs.md rig B; paper 001 eq. (2)
+// c1 = sqrt(g/R (2/(g+1))^((g+1)/(g-1))): docs/rigs.md rig B; paper 001 eq. (2)
 double SanvilleC1(double gamma, double gas_constant) {
   return std::sqrt(gamma / gas_constant *
                    std::pow(2.0 / (gamma + 1.0), (gamma + 1.0) / (gamma - 1.0)));
 }
 
-// m = c1 a pu / sqrt(T) psi(pd/pu): rigs.md rig B; paper 001 eq. (2)
+// m = c1 a pu / sqrt(T) psi(pd/pu): docs/rigs.md rig B; paper 001 eq. (2)
 double Sanville(double c1, double area, double sqrt_t, double p_cr, double pu, double pd) {
   return Reversible(pu, pd, [&](double hi, double lo) {
     if (hi <= 0.0) return 0.0;
@@ -128,7 +128,7 @@ double Sanville(double c1, double area, double sqrt_t, double p_cr, double pu, d
   });
 }
 
-// thin-plate constants alpha, beta, theta: rigs.md rig C; paper 000 Appendix
+// thin-plate constants alpha, beta, theta: docs/rigs.md rig C; paper 000 Appendix
 struct ThinPlate {
   double alpha = 0, beta = 0, theta = 0, inv_kappa = 0;
 
@@ -161,13 +161,13 @@ struct ThinPlate {
 
 }  // namespace
 
-// sanville orifice: rigs.md rig B; paper 001 eq. (2)
+// sanville orifice: docs/rigs.md rig B; paper 001 eq. (2)
 double FlowSanville(double area, double temperature, double gamma, double gas_constant,
                     double p_cr, double pu, double pd) {
   return Sanville(SanvilleC1(gamma, gas_constant), area, std::sqrt(temperature), p_cr, pu, pd);
 }
 
-// thin plate: rigs.md rig C; paper 000 eq. (1) and Appendix
+// thin plate: docs/rigs.md rig C; paper 000 eq. (1) and Appendix
 double FlowThinPlate(double area, double kappa, double discharge, double molar_mass,
                      double universal_gas_constant, double compressibility, double temperature,
                      double pu, double pd) {
@@ -176,23 +176,23 @@ double FlowThinPlate(double area, double kappa, double discharge, double molar_m
   return area * tp.Phi(pu, pd);
 }
 
-// port area: rigs.md rig C; paper 000 eq. (3), smax in mm^2
+// port area: docs/rigs.md rig C; paper 000 eq. (3), smax in mm^2
 double ValveAreaPaper000(double opening, double leak) {
   const double leak_mm2 = leak * 1e6;
   return (leak_mm2 + Smax(opening * 1e6 - leak_mm2)) * 1e-6;
 }
 
-// a_c(u) = L_c + smax((u - U_c) B - L_c); rigs.md rig C
+// a_c(u) = L_c + smax((u - U_c) B - L_c); docs/rigs.md rig C
 double SupplyPortArea(const RigParams& p, double u) {
   return ValveAreaPaper000((u - p.supply_seal_voltage) * p.area_per_volt, p.supply_leak_area);
 }
 
-// a_r(u) = L_r + smax((U_r - u) B - L_r); rigs.md rig C
+// a_r(u) = L_r + smax((U_r - u) B - L_r); docs/rigs.md rig C
 double ExhaustPortArea(const RigParams& p, double u) {
   return ValveAreaPaper000((p.exhaust_seal_voltage - u) * p.area_per_volt, p.exhaust_leak_area);
 }
 
-// volumes: rigs.md "V_P = A (l/2 + x) + V0, V_N = A (l/2 - x) + V0" (A_P, A_N for rig C)
+// volumes: docs/rigs.md "V_P = A (l/2 + x) + V0, V_N = A (l/2 - x) + V0" (A_P, A_N for rig C)
 double ChamberVolumeP(const RigParams& p, double x) {
   return p.area_P * (0.5 * p.stroke + x) + p.dead_volume;
 }
@@ -233,27 +233,27 @@ RigState HeldDerivative(const RigParams& p, const Held& h, const RigState& s,
   d.spool = 0.0;
   switch (p.rig) {
     case Rig::kOnOff: {
-      // valve flows: rigs.md rig A; paper 002 eq. (3), (4)
+      // valve flows: docs/rigs.md rig A; paper 002 eq. (3), (4)
       auto q = [&](double pu, double pd) {
         return FlowIso6358(p.valve_conductance, p.valve_critical_ratio, pu, pd);
       };
       const double q_p = cmd.u1 * q(ps, s.p_P) - cmd.u2 * q(s.p_P, pe);
       const double q_n = cmd.u3 * q(ps, s.p_N) - cmd.u4 * q(s.p_N, pe);
-      // chambers: rigs.md rig A; paper 002 eq. (1)
+      // chambers: docs/rigs.md rig A; paper 002 eq. (1)
       const double rt = p.gas_constant * p.temperature;
       d.p_P = k / vp * (rt * q_p - p.area_P * s.p_P * s.v);
       d.p_N = k / vn * (rt * q_n + p.area_N * s.p_N * s.v);
-      // piston: rigs.md rig A; paper 002 eq. (5)
+      // piston: docs/rigs.md rig A; paper 002 eq. (5)
       d.v = (p.area_P * (s.p_P - s.p_N) - p.friction * s.v) / p.mass;
       break;
     }
     case Rig::kProportional: {
-      // spool lag on the saturated command: rigs.md rig B; paper 001 eq. (1)
+      // spool lag on the saturated command: docs/rigs.md rig B; paper 001 eq. (1)
       d.spool = (p.spool_gain * h.u - s.spool) / p.spool_time_constant;
       // optional deadband (paper 001, not nominal): x_eff = sign(x_v) max(|x_v| - db k_v 5 V, 0)
       const double half_band = p.spool_deadband * p.spool_gain * p.voltage_limit;
       const double x_eff = std::copysign(std::max(std::fabs(s.spool) - half_band, 0.0), s.spool);
-      // orifice flows, a = C_d w |x_v|: rigs.md rig B; paper 001 eq. (2)
+      // orifice flows, a = C_d w |x_v|: docs/rigs.md rig B; paper 001 eq. (2)
       const double a = p.discharge_coefficient * p.area_gradient * std::fabs(x_eff);
       auto m = [&](double pu, double pd) {
         return Sanville(h.c1, a, h.sqrt_t, p.spool_critical_ratio, pu, pd);
@@ -266,24 +266,24 @@ RigState HeldDerivative(const RigParams& p, const Held& h, const RigState& s,
         q_p = -m(s.p_P, pe);
         q_n = m(ps, s.p_N);
       }
-      // chambers, alpha on the piston-work term only: rigs.md rig B; paper 001 eq. (1)
+      // chambers, alpha on the piston-work term only: docs/rigs.md rig B; paper 001 eq. (1)
       const double grt = k * p.gas_constant * p.temperature;
       d.p_P = grt / vp * q_p - p.work_factor * k * s.p_P * p.area_P / vp * s.v;
       d.p_N = grt / vn * q_n + p.work_factor * k * s.p_N * p.area_N / vn * s.v;
-      // piston: rigs.md rig B; paper 001 eq. (1)
+      // piston: docs/rigs.md rig B; paper 001 eq. (1)
       d.v = (p.area_P * (s.p_P - s.p_N) - p.friction * s.v) / p.mass;
       break;
     }
     case Rig::kPerChamber: {
-      // port flows Q = a_c phi(P_c, p) - a_r phi(p, P_r): rigs.md rig C; paper 000 eq. (1)-(3)
+      // port flows Q = a_c phi(P_c, p) - a_r phi(p, P_r): docs/rigs.md rig C; paper 000 eq. (1)-(3)
       const ThinPlate& tp = h.thin_plate;
       const double q_p = h.a_cP * tp.Phi(ps, s.p_P) - h.a_rP * tp.Phi(s.p_P, pe);
       const double q_n = h.a_cN * tp.Phi(ps, s.p_N) - h.a_rN * tp.Phi(s.p_N, pe);
-      // chambers, r = Rg/Mm, dV_P/dt = A_P v, dV_N/dt = -A_N v: rigs.md rig C; paper 000 eq. (4)
+      // chambers, r = Rg/Mm, dV_P/dt = A_P v, dV_N/dt = -A_N v: docs/rigs.md rig C; paper 000 eq. (4)
       const double krt = k * p.universal_gas_constant / p.molar_mass * p.temperature;
       d.p_P = krt / vp * q_p - k * (p.area_P * s.v) / vp * s.p_P;
       d.p_N = krt / vn * q_n - k * (-p.area_N * s.v) / vn * s.p_N;
-      // piston, gauge pressures on unequal areas: rigs.md rig C
+      // piston, gauge pressures on unequal areas: docs/rigs.md rig C
       d.v = (p.area_P * (s.p_P - pe) - p.area_N * (s.p_N - pe) - p.friction * s.v) / p.mass;
       break;
     }

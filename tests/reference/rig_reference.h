@@ -1,5 +1,5 @@
 // An independent, MuJoCo-free reference implementation of the three benchmark rigs of
-// shared/spec/rigs.md: the full ODEs (mechanics, chamber pressures, rig B's spool) integrated
+// docs/rigs.md: the full ODEs (mechanics, chamber pressures, rig B's spool) integrated
 // with a fine fixed-step classical RK4. Tests and benchmarks use it as the "fine-step
 // reference" against which the MuJoCo extension is checked.
 //
@@ -12,14 +12,14 @@
 
 namespace pneumatic::reference {
 
-// the rigs of rigs.md
+// the rigs of docs/rigs.md
 enum class Rig {
   kOnOff,         // rig A: four on/off solenoid valves (papers 002, 003)
   kProportional,  // rig B: one proportional 5/3 valve with spool lag (paper 001)
   kPerChamber,    // rig C: one proportional 3/3 valve per chamber (paper 000)
 };
 
-// Every number of rigs.md for one rig. Fields that a rig does not use are 0.
+// Every number of docs/rigs.md for one rig. Fields that a rig does not use are 0.
 struct RigParams {
   Rig rig = Rig::kOnOff;
 
@@ -54,7 +54,7 @@ struct RigParams {
   double spool_critical_ratio = 0;   // 1; P_cr
   double voltage_limit = 0;          // V; |u| saturates here (5 V)
   double spool_deadband = 0;         // 1; fraction of the full spool range 2 k_v 5 V; 0 nominal
-                                     //    (paper 001: 0.12). Not part of rigs.md's nominal model.
+                                     //    (paper 001: 0.12). Not part of docs/rigs.md's nominal model.
 
   // rig C: thin-plate ports (paper 000 eq. 1, 3)
   double molar_mass = 0;             // kg/mol; Mm
@@ -67,7 +67,7 @@ struct RigParams {
   double exhaust_leak_area = 0;      // m^2; L_r
 };
 
-// exactly rigs.md's numbers for `rig` (spool_deadband = 0)
+// exactly docs/rigs.md's numbers for `rig` (spool_deadband = 0)
 RigParams DefaultParams(Rig rig);
 
 // the control period of `rig`: 2 ms (A), 1 ms (B), 10 ms (C)
@@ -116,13 +116,13 @@ double ValveAreaPaper000(double opening, double leak);
 double SupplyPortArea(const RigParams& p, double u);
 double ExhaustPortArea(const RigParams& p, double u);
 
-// Chamber volumes V_P = A_P (L/2 + x) + V0, V_N = A_N (L/2 - x) + V0 in m^3 (rigs.md).
+// Chamber volumes V_P = A_P (L/2 + x) + V0, V_N = A_N (L/2 - x) + V0 in m^3 (docs/rigs.md).
 double ChamberVolumeP(const RigParams& p, double x);
 double ChamberVolumeN(const RigParams& p, double x);
 
 // --- dynamics and integration ---
 
-// d/dt of (x, v, p_P, p_N, spool) per rigs.md for p.rig under a held command.
+// d/dt of (x, v, p_P, p_N, spool) per docs/rigs.md for p.rig under a held command.
 RigState Derivative(const RigParams& p, const RigState& s, const RigCommand& cmd);
 
 // Classical RK4 with step fine_dt (s) over `duration` (s), the command held (ZOH); the last
@@ -130,7 +130,7 @@ RigState Derivative(const RigParams& p, const RigState& s, const RigCommand& cmd
 RigState Integrate(const RigParams& p, RigState s, const RigCommand& cmd, double duration,
                    double fine_dt);
 
-// One row of a log (log_format.md): the command applied from `time` on, and the state
+// One row of a log (docs/log_format.md): the command applied from `time` on, and the state
 // sampled at `time`, before that command acts.
 struct Sample {
   double time;  // s

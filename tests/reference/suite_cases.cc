@@ -250,7 +250,7 @@ uint64_t IdSeed(const std::string& id) {
 
 constexpr double kRates[4] = {100, 200, 500, 1000};
 
-// the case's real rig: rigs.md's numbers perturbed (suite_cases.h), drawn from its seed
+// the case's real rig: docs/rigs.md's numbers perturbed (suite_cases.h), drawn from its seed
 Perturbation DrawPerturbation(Rig rig, NormalSource* random) {
   const RigParams nominal = DefaultParams(rig);
   Perturbation p;

@@ -1,12 +1,12 @@
 // The graded diagnosis suite of issue 55 (item 3): its cases and their logs, simulated by the
 // independent "real rig" of real_rig.h.
 //
-// Each case is one rig of shared/spec/rigs.md with its parameters drawn around the nominal ones
+// Each case is one rig of docs/rigs.md with its parameters drawn around the nominal ones
 // (valve discharge coefficient or sonic conductance, critical ratio and polytropic index within
 // +-20 %, the index clamped to [1.0, 1.4]; each chamber's dead volume and the viscous damping
 // within +-30 %; the moving mass as nominal), at most one effect switched on, sensors with noise
 // (a factor in [0.5, 2] of 500 Pa and 0.05 mm), a 30-100 us pressure-sensor lag and a 5 um position
-// quantum. Its truth is an effect's name of shared/spec/effects.md, `none` (parameters only), or
+// quantum. Its truth is an effect's name of docs/effects.md, `none` (parameters only), or
 // `unexplained` (an effect no library holds). The diagnosis gets the nominal model
 // (models_mjcf/<RigModelFile>) and three logs made with different excitations: training, selection
 // and test. Everything is deterministic: the case list is fixed and each log depends only on its
@@ -24,7 +24,7 @@
 
 namespace pneumatic::reference {
 
-// the parameters a case's real rig was drawn with, against rigs.md's
+// the parameters a case's real rig was drawn with, against docs/rigs.md's
 struct Perturbation {
   double flow = 1;            // factor on C_val (A) or the discharge coefficient (B, C)
   double critical_ratio = 1;  // factor on b_crit (A) or P_cr (B); 1 on C (no critical ratio)
@@ -38,7 +38,7 @@ struct SuiteCase {
   Rig rig = Rig::kOnOff;
   double rate = 500;       // Hz: the log's and the excitation's rate
   double noise = 1;        // the sensors' noise as a factor of 500 Pa and 0.05 mm
-  std::string truth;       // effects.md name, "none" or "unexplained"
+  std::string truth;       // docs/effects.md name, "none" or "unexplained"
   std::string description;
   Perturbation perturbation;
   RealRigParams params;    // the real rig: perturbed, with its effect
@@ -60,7 +60,7 @@ inline constexpr double kSuiteFineStep = 5e-6;
 // every case, in a fixed order
 std::vector<SuiteCase> SuiteCases();
 
-// A log of the case (log_format.md, cylinder "cyl"): the rig's commands, p_P, p_N, x, v (a finite
+// A log of the case (docs/log_format.md, cylinder "cyl"): the rig's commands, p_P, p_N, x, v (a finite
 // difference of the logged x) and p_S, one row per 1 / rate s over `duration` s, the excitation of
 // seeds[which] closed on the logged (noisy) measurements. `source` names the case and the part.
 log::Log SimulateCase(const SuiteCase& c, int which, double duration);

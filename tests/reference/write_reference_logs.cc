@@ -1,6 +1,6 @@
-// Writes a 4 s reference log of each rig of shared/spec/rigs.md (the
+// Writes a 4 s reference log of each rig of docs/rigs.md (the
 // deterministic excitation, integrated with RK4 at 1 us) into a folder, as
-// logs of shared/spec/log_format.md that `pneumo rollout` can replay.
+// logs of docs/log_format.md that `pneumo rollout` can replay.
 // PATTERN `fast` writes FastSwitchingExcitation()'s logs (every command held
 // 10-80 ms) as rig_*_fast_reference.csv instead; `default` (the default) the others.
 //

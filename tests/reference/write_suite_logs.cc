@@ -1,5 +1,5 @@
 // Writes the graded diagnosis suite's logs (tests/reference/suite_cases.h): for every case
-// OUT_DIR/<id>/train.csv, selection.csv and test.csv (shared/spec/log_format.md), and OUT_DIR/cases.json,
+// OUT_DIR/<id>/train.csv, selection.csv and test.csv (docs/log_format.md), and OUT_DIR/cases.json,
 // the manifest: each case's id, rig, model file, rate, noise factor, truth, description, drawn
 // parameter perturbations, sensors and seeds. --case TEXT: only the cases whose id contains TEXT;
 // --durations T S X: the three logs' durations in s (10, 6 and 6 by default).

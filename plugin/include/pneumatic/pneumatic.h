@@ -97,7 +97,7 @@ struct CylinderInfo {
   std::string name;                    // "<cylinder>"
   int chamber_actuator[2] = {-1, -1};  // "<name>.P", "<name>.N": act = p - p_atm (Pa)
   // command actuators by log signal name ("u", "uP", "uN", "u1".."u4", "duty"):
-  // their ctrl is the command of log_format.md (with commands=chambers these are the
+  // their ctrl is the command of docs/log_format.md (with commands=chambers these are the
   // chamber actuators themselves: write the commands here, not by actuator name)
   std::vector<std::pair<std::string, int>> command_actuators;
   // the actuator whose ctrl is command `signal` ("uP", ...), or -1 if this cylinder has none
