@@ -1,11 +1,13 @@
 // The candidate effects a diagnosis tries (issue 14, "Which"): for each name of
-// shared/spec/effects.md, the form the diagnosis adds to the user's model and the parameters it
+// docs/effects.md, the form the diagnosis adds to the user's model and the parameters it
 // fits. The forms are deliberately simple (a Coulomb friction for whatever the seals do, one wall
 // heat conductance, an orifice leak): a real effect will not follow any one form, and a simple
 // form that captures its signature generalises to held-out data better than a rich one. Where one
 // simple form leaves much unexplained, a second form of the effect is tried in the rounds the first
 // leads or where it is the runner-up that explains the gap (Candidate::refinement: a dead time, laminar
-// leaks, leaks both laminar and orifice, a supply tank, ...; diagnose.cc).
+// leaks, leaks both laminar and orifice, a supply tank, ...; diagnose.cc). Each effect's forms are
+// declared in a file of diagnosis/effects/ and registered in effects/registry.cc
+// (docs/effect_forms.md).
 //
 // A candidate changes the model in up to three ways: keys of a cylinder's "pneumatic:" text
 // (SetParameter), fields of mjModel (a joint's frictionloss, a body's mass), and the signal model
@@ -53,8 +55,10 @@ struct ModelEdit {
 // proportional_per_chamber; none for any other valve, which has no delay line.
 std::vector<std::string> DelayLineStates(const std::string& valve);
 
-// Loads the MJCF at `path` with `edits` applied to its text (through a virtual file beside it, so
-// its includes and assets resolve as before) and attaches it. Null and *error on failure.
+// Loads the MJCF at `path` with `edits` applied and attaches it. The edits are made on its document
+// (tinyxml2) after its <include> elements are resolved as MuJoCo resolves them, so the cylinder's
+// text and the actuators may sit in an included file; the edited document is loaded through a virtual
+// file beside the original, so its assets resolve as before. Null and *error on failure.
 ModelPtr LoadEditedModel(const std::string& path, const std::vector<ModelEdit>& edits, std::string* error);
 
 // One fitted parameter of a candidate.
