@@ -1,36 +1,31 @@
 #include "karpenko_pid.h"
 
-#include "key_value_text.h"
-
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <limits>
-#include <sstream>
 
 namespace pneumatic {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-
-// numbers in messages
-std::string Number(double v) { return NumberForMessage(v); }
+constexpr const char* kName = "karpenko PID controller";
 
 std::string KeyError(const std::string& key, const std::string& message) {
-  return "karpenko PID controller: key '" + key + "': " + message;
+  return ControllerKeyError(kName, key, message);
 }
 
-double Get(const KarpenkoPidParams& p, const KarpenkoPidKey& k) {
-  if (k.number) return p.*(k.number);
-  return p.*(k.flag) ? 1 : 0;
+// the checks between keys: augmentation (15) divides by K_i
+std::string KeysTogether(const KarpenkoPidParams& params) {
+  if (params.augmentation && !(params.ki > 0)) {
+    return KeyError("ki", "must be positive with augmentation=1, which divides by it (15) (got " +
+                              NumberForMessage(params.ki) + ")");
+  }
+  return "";
 }
 
-std::string CheckValue(const KarpenkoPidKey& k, double value) {
-  const std::string key = k.key;
-  if (!std::isfinite(value)) return KeyError(key, "must be a finite number (got " + Number(value) + ")");
-  if (k.flag) return value == 0 || value == 1 ? "" : KeyError(key, "must be 0 or 1 (got " + Number(value) + ")");
-  const std::string problem = RangeProblem(value, k.min, k.max, k.min_open, k.max_open, k.unit);
-  return problem.empty() ? "" : KeyError(key, problem);
+const ControllerConfigTable<KarpenkoPidParams>& Table() {
+  static const ControllerConfigTable<KarpenkoPidParams> table{kName, KarpenkoPidKeys(), KeysTogether};
+  return table;
 }
 
 }  // namespace
@@ -62,29 +57,15 @@ const std::vector<KarpenkoPidKey>& KarpenkoPidKeys() {
 }
 
 std::string ValidateKarpenkoPidParams(const KarpenkoPidParams& params) {
-  for (const KarpenkoPidKey& k : KarpenkoPidKeys()) {
-    if (std::string e = CheckValue(k, Get(params, k)); !e.empty()) return e;
-  }
-  if (params.augmentation && !(params.ki > 0)) {
-    return KeyError("ki", "must be positive with augmentation=1, which divides by it (15) (got " +
-                              Number(params.ki) + ")");
-  }
-  return "";
+  return ValidateControllerParams(Table(), params);
 }
 
 bool SetKarpenkoPidParameter(KarpenkoPidParams* params, const std::string& key, double value, std::string* error) {
-  auto apply = [&](const KarpenkoPidKey& k, double v) {
-    if (k.number) {
-      params->*(k.number) = v;
-    } else {
-      params->*(k.flag) = v != 0;
-    }
-  };
-  return SetFromKeyTable(KarpenkoPidKeys(), key, value, error, CheckValue, apply, KeyError);
+  return SetControllerParameter(Table(), params, key, value, error);
 }
 
 bool ParseKarpenkoPidConfig(const std::string& text, KarpenkoPidParams* params, std::string* error) {
-  return ParseKeyValueConfig(text, params, error, SetKarpenkoPidParameter, ValidateKarpenkoPidParams, KeyError);
+  return ParseControllerConfig(Table(), text, params, error);
 }
 
 double KarpenkoVelocityErrorEq14(double xp_dot, double xd_dot, double beta) {

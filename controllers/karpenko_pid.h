@@ -40,6 +40,7 @@
 #include <string>
 #include <vector>
 
+#include "config_parser.h"
 #include "controller.h"
 #include "position_pid.h"
 
@@ -62,16 +63,9 @@ struct KarpenkoPidParams {
   double ka = 0.15;          // s^2, (16): K_a
 };
 
-// One parameter of KarpenkoPidParams: its key, unit, meaning and valid range.
-struct KarpenkoPidKey {
-  const char* key;
-  const char* unit;
-  const char* meaning;
-  double min, max;          // valid range
-  bool min_open, max_open;  // true: the bound itself is excluded
-  double KarpenkoPidParams::*number;  // null for the switches (0 or 1)
-  bool KarpenkoPidParams::*flag;      // null for the numbers
-};
+// One parameter of KarpenkoPidParams: its key, unit, meaning and valid range (config_parser.h); the
+// switches (reset, reset_when_still, augmentation, braking) are 0 or 1.
+using KarpenkoPidKey = ControllerKey<KarpenkoPidParams>;
 const std::vector<KarpenkoPidKey>& KarpenkoPidKeys();
 
 // "" if every parameter is in range, else "karpenko PID controller: key 'KEY': ..." for the first one

@@ -1,5 +1,6 @@
 // The text form of a controller's configuration: "key=value" pairs separated by spaces, tabs,
-// newlines or commas (e.g. "omega=100 xi=0.5"), shared by the papers' controllers.
+// newlines or commas (e.g. "omega=100 xi=0.5"), and the pieces of its messages. config_parser.h reads
+// such text against a controller's table of keys.
 #ifndef PNEUMATIC_CONTROLLERS_KEY_VALUE_TEXT_H_
 #define PNEUMATIC_CONTROLLERS_KEY_VALUE_TEXT_H_
 
@@ -63,60 +64,6 @@ inline std::string RangeProblem(double value, double min, double max, bool min_o
   const std::string range = std::string(min_open ? "(" : "[") + NumberForMessage(min) + ", " +
                             (std::isinf(max) ? std::string("inf") : NumberForMessage(max)) + (max_open ? ")" : "]");
   return "must be in " + range + (unit.empty() ? "" : " " + unit) + " (got " + NumberForMessage(value) + ")";
-}
-
-// Sets one parameter of a controller from its key table (rows with a `key` member): check(row, value)
-// ("" or the error) then apply(row, value) on the row named `key`. False with *error set if the value
-// is refused or no row has that name (key_error words that, listing the keys).
-template <typename Row, typename Check, typename Apply, typename KeyError>
-bool SetFromKeyTable(const std::vector<Row>& rows, const std::string& key, double value, std::string* error,
-                     Check check, Apply apply, KeyError key_error) {
-  for (const Row& row : rows) {
-    if (key != row.key) continue;
-    if (std::string e = check(row, value); !e.empty()) {
-      if (error) *error = e;
-      return false;
-    }
-    apply(row, value);
-    return true;
-  }
-  std::string known;
-  for (const Row& row : rows) known += std::string(known.empty() ? "" : " ") + row.key;
-  if (error) *error = key_error(key, "unknown key (keys: " + known + ")");
-  return false;
-}
-
-// Parses a controller's "key=value ..." text: each number goes through set(&copy, key, number, error)
-// (false: an unknown or out-of-range key, *error set), then validate(copy) checks the whole ("" or
-// the error); *params changes only when all of it is accepted. key_error(key, message) words the
-// errors of the text itself (not key=value, not a number). A value that is a word, e.g.
-// observer=sliding, may be turned into its number by `name_value` first.
-template <typename Params, typename Set, typename Validate, typename KeyError>
-bool ParseKeyValueConfig(const std::string& text, Params* params, std::string* error, Set set, Validate validate,
-                         KeyError key_error,
-                         std::string (*name_value)(const std::string& key, const std::string& value) = nullptr) {
-  Params out = *params;
-  std::vector<std::pair<std::string, std::string>> pairs;
-  std::string bad;
-  if (!SplitKeyValues(text, &pairs, &bad)) {
-    if (error) *error = key_error(bad.substr(0, bad.find('=')), "expected key=value, got '" + bad + "'");
-    return false;
-  }
-  for (auto& [key, value] : pairs) {
-    if (name_value) value = name_value(key, value);
-    double number = 0;
-    if (!ParseNumber(value, &number)) {
-      if (error) *error = key_error(key, "'" + value + "' is not a number");
-      return false;
-    }
-    if (!set(&out, key, number, error)) return false;
-  }
-  if (std::string e = validate(out); !e.empty()) {
-    if (error) *error = e;
-    return false;
-  }
-  *params = out;
-  return true;
 }
 
 }  // namespace pneumatic

@@ -1,39 +1,20 @@
 #include "laib_smc.h"
 
-#include "key_value_text.h"
-
 #include <algorithm>
 #include <cmath>
-#include <cstdlib>
 #include <limits>
-#include <sstream>
 
 namespace pneumatic {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr const char* kName = "laib controller";
 
 // numbers in messages
 std::string Number(double v) { return NumberForMessage(v); }
 
 std::string KeyError(const std::string& key, const std::string& message) {
-  return "laib controller: key '" + key + "': " + message;
-}
-
-double Get(const LaibSmcParams& p, const LaibSmcKey& k) {
-  if (k.number) return p.*(k.number);
-  if (std::string(k.key) == "observer") return p.observer;
-  return p.substeps;
-}
-
-std::string CheckValue(const LaibSmcKey& k, double value) {
-  const std::string key = k.key;
-  if (!std::isfinite(value)) return KeyError(key, "must be a finite number (got " + Number(value) + ")");
-  if (!k.number && value != std::floor(value)) {
-    return KeyError(key, "must be a whole number (got " + Number(value) + ")");
-  }
-  const std::string problem = RangeProblem(value, k.min, k.max, k.min_open, k.max_open, k.unit);
-  return problem.empty() ? "" : KeyError(key, problem);
+  return ControllerKeyError(kName, key, message);
 }
 
 double Sign(double v) { return v > 0 ? 1 : v < 0 ? -1 : 0; }
@@ -74,7 +55,8 @@ const std::vector<LaibSmcKey>& LaibSmcKeys() {
       {"beta", "", "gain-uncertainty bound of (17), > 1", 1, kInf, true, true, &P::beta},
       {"gamma", "", "drift-uncertainty bound of (17)", 0, kInf, false, true, &P::gamma},
       {"eta", "m/s^3", "reaching gain of (20)", 0, kInf, true, true, &P::eta},
-      {"observer", "", "0 (or high_gain): observer (22); 1 (or sliding): observer (23)", 0, 1, false, false, nullptr},
+      {"observer", "", "0 (or high_gain): observer (22); 1 (or sliding): observer (23)", 0, 1, false, false, nullptr,
+       nullptr, &P::observer},
       {"g11", "", "G_1 of (22)", 0, kInf, true, true, &P::g11},
       {"g12", "", "G_1 of (22)", 0, kInf, true, true, &P::g12},
       {"g13", "", "G_1 of (22)", 0, kInf, true, true, &P::g13},
@@ -89,15 +71,16 @@ const std::vector<LaibSmcKey>& LaibSmcKeys() {
       {"l12", "m/s^2", "L_1 of (23)", 0, kInf, false, true, &P::l12},
       {"l13", "m/s^3", "L_1 of (23)", 0, kInf, false, true, &P::l13},
       {"l2", "Pa/s", "L_2 of (23), > max |delta2| (24)", 0, kInf, false, true, &P::l2},
-      {"substeps", "", "observer Euler steps per control period", 1, 100000, false, false, nullptr},
+      {"substeps", "", "observer Euler steps per control period", 1, 100000, false, false, nullptr, nullptr,
+       &P::substeps},
   };
   return keys;
 }
 
-std::string ValidateLaibSmcParams(const LaibSmcParams& p) {
-  for (const LaibSmcKey& k : LaibSmcKeys()) {
-    if (std::string e = CheckValue(k, Get(p, k)); !e.empty()) return e;
-  }
+namespace {
+
+// the checks between keys: the supply above the exhaust, and observers whose error dynamics are stable
+std::string KeysTogether(const LaibSmcParams& p) {
   if (!(p.p_supply > p.p_exhaust)) {
     return KeyError("p_supply", "must exceed p_exhaust = " + Number(p.p_exhaust) + " Pa (got " + Number(p.p_supply) + ")");
   }
@@ -113,21 +96,6 @@ std::string ValidateLaibSmcParams(const LaibSmcParams& p) {
   return "";
 }
 
-bool SetLaibSmcParameter(LaibSmcParams* params, const std::string& key, double value, std::string* error) {
-  auto apply = [&](const LaibSmcKey& k, double v) {
-    if (k.number) {
-      params->*(k.number) = v;
-    } else if (std::string(k.key) == "observer") {
-      params->observer = static_cast<int>(v);
-    } else {
-      params->substeps = static_cast<int>(v);
-    }
-  };
-  return SetFromKeyTable(LaibSmcKeys(), key, value, error, CheckValue, apply, KeyError);
-}
-
-namespace {
-
 // observer=high_gain and observer=sliding, as the numbers 0 and 1
 std::string ObserverNumber(const std::string& key, const std::string& value) {
   if (key == "observer" && value == "high_gain") return "0";
@@ -135,10 +103,21 @@ std::string ObserverNumber(const std::string& key, const std::string& value) {
   return value;
 }
 
+const ControllerConfigTable<LaibSmcParams>& Table() {
+  static const ControllerConfigTable<LaibSmcParams> table{kName, LaibSmcKeys(), KeysTogether, ObserverNumber};
+  return table;
+}
+
 }  // namespace
 
+std::string ValidateLaibSmcParams(const LaibSmcParams& p) { return ValidateControllerParams(Table(), p); }
+
+bool SetLaibSmcParameter(LaibSmcParams* params, const std::string& key, double value, std::string* error) {
+  return SetControllerParameter(Table(), params, key, value, error);
+}
+
 bool ParseLaibSmcConfig(const std::string& text, LaibSmcParams* params, std::string* error) {
-  return ParseKeyValueConfig(text, params, error, SetLaibSmcParameter, ValidateLaibSmcParams, KeyError, ObserverNumber);
+  return ParseControllerConfig(Table(), text, params, error);
 }
 
 double LaibFlow(const LaibSmcParams& p, double pu, double pd) {

@@ -51,6 +51,7 @@
 #include <string>
 #include <vector>
 
+#include "config_parser.h"
 #include "controller.h"
 #include "position_pid.h"
 
@@ -86,15 +87,9 @@ struct LaibSmcParams {
   int substeps = 40;    // observer Euler steps per control period
 };
 
-// One key of LaibSmcParams: name, unit, meaning, valid range.
-struct LaibSmcKey {
-  const char* key;
-  const char* unit;
-  const char* meaning;
-  double min, max;
-  bool min_open, max_open;
-  double LaibSmcParams::*number;  // null for the integer keys (observer, substeps)
-};
+// One key of LaibSmcParams: name, unit, meaning, valid range (config_parser.h); observer and substeps
+// are whole numbers.
+using LaibSmcKey = ControllerKey<LaibSmcParams>;
 const std::vector<LaibSmcKey>& LaibSmcKeys();
 
 // "" or "laib controller: key 'KEY': ..." for the first parameter out of range.

@@ -5,26 +5,31 @@
 #include <cstdlib>
 #include <sstream>
 
+#include "config_parser.h"
+
 namespace pneumatic {
 namespace {
 
-struct Key {
-  const char* name;
-  double PositionStiffnessParams::*field;
-  double min, max;
-  const char* unit;
-};
-
-const Key kKeys[] = {
-    {"kp", &PositionStiffnessParams::kp, 0, 1e3, "1"},
-    {"ki", &PositionStiffnessParams::ki, 0, 1e3, "1/s"},
-    {"kd", &PositionStiffnessParams::kd, 0, 10, "s"},
-    {"swing", &PositionStiffnessParams::swing, 0, 10, "V"},
-    {"mean_pressure", &PositionStiffnessParams::mean_pressure, 0, 1, "1 (of p_supply - p_exhaust above p_exhaust)"},
-    {"stiffness_kp", &PositionStiffnessParams::stiffness_kp, 0, 1e3, "V"},
-    {"stiffness_ki", &PositionStiffnessParams::stiffness_ki, 0, 1e4, "V/s"},
-    {"max_common", &PositionStiffnessParams::max_common, 0, 10, "V"},
-};
+// the keys, each with its closed range [min, max] (config_parser.h's table; the unit is part of the
+// message). This controller reads its text on its own: pairs between spaces only, and its own messages,
+// which `pneumo rollout --controller position_stiffness` has always given
+const std::vector<ControllerKey<PositionStiffnessParams>>& Keys() {
+  using P = PositionStiffnessParams;
+  static const std::vector<ControllerKey<P>> keys = {
+      {"kp", "1", "position loop's proportional gain on the error over the half stroke", 0, 1e3, false, false, &P::kp},
+      {"ki", "1/s", "position loop's integral gain", 0, 1e3, false, false, &P::ki},
+      {"kd", "s", "position loop's derivative gain (on the measurement)", 0, 10, false, false, &P::kd},
+      {"swing", "V", "differential valve command per unit of position demand", 0, 10, false, false, &P::swing},
+      {"mean_pressure", "1 (of p_supply - p_exhaust above p_exhaust)",
+       "target mean chamber pressure, as a fraction of the way from p_exhaust to p_supply", 0, 1, false, false,
+       &P::mean_pressure},
+      {"stiffness_kp", "V", "stiffness loop's proportional gain on the normalised mean-pressure error", 0, 1e3, false,
+       false, &P::stiffness_kp},
+      {"stiffness_ki", "V/s", "stiffness loop's integral gain", 0, 1e4, false, false, &P::stiffness_ki},
+      {"max_common", "V", "largest common valve command |c|", 0, 10, false, false, &P::max_common},
+  };
+  return keys;
+}
 
 }  // namespace
 
@@ -35,8 +40,8 @@ std::string ParsePositionStiffnessConfig(const std::string& text, PositionStiffn
   while (words >> word) {
     const size_t eq = word.find('=');
     const std::string key = word.substr(0, eq);
-    const Key* k = nullptr;
-    for (const Key& candidate : kKeys) k = key == candidate.name ? &candidate : k;
+    const ControllerKey<PositionStiffnessParams>* k = nullptr;
+    for (const auto& candidate : Keys()) k = key == candidate.key ? &candidate : k;
     if (!k) return "position-stiffness controller: unknown key '" + key + "'";
     char* end = nullptr;
     const double value = eq == std::string::npos ? NAN : std::strtod(word.c_str() + eq + 1, &end);
@@ -45,7 +50,7 @@ std::string ParsePositionStiffnessConfig(const std::string& text, PositionStiffn
       return "position-stiffness controller: key '" + key + "': expected a number in [" + std::to_string(k->min) +
              ", " + std::to_string(k->max) + "] " + k->unit;
     }
-    out.*(k->field) = value;
+    out.*(k->number) = value;
   }
   *params = out;
   return "";

@@ -1,51 +1,42 @@
 #include "sliding_mode.h"
 
-#include "key_value_text.h"
-
 #include <cmath>
-#include <cstdlib>
 #include <limits>
-#include <sstream>
 
 namespace pneumatic {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kPi = 3.14159265358979323846;
+constexpr const char* kName = "sliding-mode controller";
 
 // numbers in messages
 std::string Number(double v) { return NumberForMessage(v); }
 
 std::string KeyError(const std::string& key, const std::string& message) {
-  return "sliding-mode controller: key '" + key + "': " + message;
+  return ControllerKeyError(kName, key, message);
 }
 
-// the key's value in params, as a number
-double Get(const SlidingModeParams& p, const SlidingModeKey& k) {
-  if (k.number) return p.*(k.number);
-  if (std::string(k.key) == "modes") return p.modes;
-  return p.variable_epsilon ? 1 : 0;
+// the checks between keys: E1 (15) needs the supply above the exhaust
+std::string KeysTogether(const SlidingModeParams& params) {
+  if (!(params.p_supply > params.p_exhaust)) {
+    return KeyError("p_supply", "must exceed p_exhaust = " + Number(params.p_exhaust) + " Pa (got " +
+                                    Number(params.p_supply) + ")");
+  }
+  return "";
 }
 
-// "" or what is wrong with `value` for key k
-std::string CheckValue(const SlidingModeKey& k, double value) {
-  const std::string key = k.key;
-  if (!std::isfinite(value)) return KeyError(key, "must be a finite number (got " + Number(value) + ")");
-  if (key == "modes") {
-    return value == 3 || value == 7 ? "" : KeyError(key, "must be 3 or 7 (got " + Number(value) + ")");
-  }
-  if (key == "variable_epsilon") {
-    return value == 0 || value == 1 ? "" : KeyError(key, "must be 0 or 1 (got " + Number(value) + ")");
-  }
-  const std::string problem = RangeProblem(value, k.min, k.max, k.min_open, k.max_open, k.unit);
-  return problem.empty() ? "" : KeyError(key, problem);
+const ControllerConfigTable<SlidingModeParams>& Table() {
+  static const ControllerConfigTable<SlidingModeParams> table{kName, SlidingModeKeys(), KeysTogether};
+  return table;
 }
 
 }  // namespace
 
 const std::vector<SlidingModeKey>& SlidingModeKeys() {
   static const std::vector<SlidingModeKey> keys = {
-      {"modes", "", "3: the 3-mode controller of ref. [17] (Fig. 6); 7: paper 002's Table II", 3, 7, false, false, nullptr},
+      {"modes", "", "3: the 3-mode controller of ref. [17] (Fig. 6); 7: paper 002's Table II", 3, 7, false, false, nullptr,
+       nullptr, &SlidingModeParams::modes, true},
       {"omega", "rad/s", "w of the switching function (7)", 0, kInf, true, true, &SlidingModeParams::omega},
       {"xi", "", "xi of the switching function (7)", 0, kInf, true, true, &SlidingModeParams::xi},
       {"tau", "s", "timeout: least time between M2<->M4 and M3<->M5 (IV.C.1)", 0, kInf, false, true,
@@ -57,7 +48,7 @@ const std::vector<SlidingModeKey>& SlidingModeKeys() {
       {"yd_dot_min", "m/s", "reference speed below which eps = kappa s_stop (25)", 0, kInf, false, true,
        &SlidingModeParams::yd_dot_min},
       {"variable_epsilon", "", "1: eps from (22-25) in the 7-mode controller; 0: eps = e_min", 0, 1, false, false,
-       nullptr},
+       nullptr, &SlidingModeParams::variable_epsilon},
       {"filter_cutoff", "Hz", "cut-off of the 2nd-order Butterworth on the error (VI.A)", 0, kInf, true, true,
        &SlidingModeParams::filter_cutoff},
       {"p_supply", "Pa", "P_S in E1 (15), absolute", 0, kInf, true, true, &SlidingModeParams::p_supply},
@@ -67,31 +58,15 @@ const std::vector<SlidingModeKey>& SlidingModeKeys() {
 }
 
 std::string ValidateSlidingModeParams(const SlidingModeParams& params) {
-  for (const SlidingModeKey& k : SlidingModeKeys()) {
-    if (std::string e = CheckValue(k, Get(params, k)); !e.empty()) return e;
-  }
-  if (!(params.p_supply > params.p_exhaust)) {
-    return KeyError("p_supply", "must exceed p_exhaust = " + Number(params.p_exhaust) + " Pa (got " +
-                                    Number(params.p_supply) + ")");
-  }
-  return "";
+  return ValidateControllerParams(Table(), params);
 }
 
 bool SetSlidingModeParameter(SlidingModeParams* params, const std::string& key, double value, std::string* error) {
-  auto apply = [&](const SlidingModeKey& k, double v) {
-    if (k.number) {
-      params->*(k.number) = v;
-    } else if (std::string(k.key) == "modes") {
-      params->modes = static_cast<int>(v);
-    } else {
-      params->variable_epsilon = v != 0;
-    }
-  };
-  return SetFromKeyTable(SlidingModeKeys(), key, value, error, CheckValue, apply, KeyError);
+  return SetControllerParameter(Table(), params, key, value, error);
 }
 
 bool ParseSlidingModeConfig(const std::string& text, SlidingModeParams* params, std::string* error) {
-  return ParseKeyValueConfig(text, params, error, SetSlidingModeParameter, ValidateSlidingModeParams, KeyError);
+  return ParseControllerConfig(Table(), text, params, error);
 }
 
 double SlidingModeBetaEq18(double xi, double omega, double area, double p_supply, double p_exhaust, double viscous) {

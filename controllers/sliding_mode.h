@@ -43,6 +43,7 @@
 #include <string>
 #include <vector>
 
+#include "config_parser.h"
 #include "controller.h"
 #include "position_pid.h"
 
@@ -65,15 +66,9 @@ struct SlidingModeParams {
   double p_exhaust = 1.0e5;     // Pa abs, Table V: P_E in E1 (15)
 };
 
-// One parameter of SlidingModeParams: its key, unit, meaning and valid range.
-struct SlidingModeKey {
-  const char* key;
-  const char* unit;
-  const char* meaning;
-  double min, max;        // valid range
-  bool min_open, max_open;  // true: the bound itself is excluded
-  double SlidingModeParams::*number;  // null for the integer and boolean keys
-};
+// One parameter of SlidingModeParams: its key, unit, meaning and valid range (config_parser.h); modes
+// is 3 or 7, variable_epsilon 0 or 1.
+using SlidingModeKey = ControllerKey<SlidingModeParams>;
 const std::vector<SlidingModeKey>& SlidingModeKeys();
 
 // "" if every parameter is in range, else "sliding-mode controller: key 'KEY': ..." for the first

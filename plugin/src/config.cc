@@ -363,250 +363,293 @@ const char* AppliesText(AppliesTo a) {
   return "";
 }
 
-}  // namespace
+// ParseCylinderConfig's steps follow, in its order; a step that checks returns false once the error is
+// written (Parser::Fail)
 
-std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const std::string& text,
-                                                  std::string* error) {
-  Parser parser(name, error);
-  auto fail = [&](const std::string& key, const std::string& message) -> std::optional<CylinderConfig> {
-    parser.Fail(key, message);
-    return std::nullopt;
-  };
-  RawValues raw;
-  if (!parser.Split(text, &raw)) return std::nullopt;
+// a prefixed chamber key ("P.area", "N.area"), or the key itself for the cylinder (chamber -1)
+std::string Prefixed(int chamber, const char* key) {
+  return chamber < 0 ? std::string(key) : std::string(chamber == 0 ? "P." : "N.") + key;
+}
 
-  // "<cylinder>.<role>" names the actuators and "<cylinder>.<signal>" the log columns
+// the value given for row p in `values`, if any
+bool Given(const std::map<std::string, std::string>& values, const Param& p, std::string* out) {
+  auto it = values.find(p.key);
+  if (it == values.end()) return false;
+  *out = it->second;
+  return true;
+}
+
+// "<cylinder>.<role>" names the actuators and "<cylinder>.<signal>" the log columns: a name holds none of
+// their separators
+bool CheckName(const std::string& name, std::string* error) {
   if (name.find('.') != std::string::npos || name.find_first_of(" \t,") != std::string::npos) {
     *error = "cylinder '" + name + "': a cylinder name cannot contain '.', ',' or spaces "
              "(actuators are named <cylinder>.<role>, log columns <cylinder>.<signal>)";
-    return std::nullopt;
-  }
-  CylinderConfig c;
-  c.name = name;
-
-  // value of a key as given, or its default; `given` tells which
-  auto lookup = [&](const std::map<std::string, std::string>& values, const Param& p,
-                    std::string* out) {
-    auto it = values.find(p.key);
-    if (it != values.end()) {
-      *out = it->second;
-      return true;
-    }
     return false;
-  };
-  auto prefixed = [](int chamber, const char* key) {
-    return chamber < 0 ? std::string(key) : std::string(chamber == 0 ? "P." : "N.") + key;
-  };
+  }
+  return true;
+}
 
-  // enumerations first: they decide which other keys apply
+// choice `key` as given in `values` (shown as `shown` in errors) into *field, which keeps its default when
+// the key is not given
+template <typename Enum>
+bool ReadChoice(Parser& parser, const std::map<std::string, std::string>& values, const char* key,
+                const std::string& shown, Enum* field) {
+  std::string text;
   int index = 0;
-  std::string text_value;
+  const Param& p = *FindParam(key);
+  if (!Given(values, p, &text)) return true;
+  if (!parser.Choice(p, shown, text, &index)) return false;
+  *field = static_cast<Enum>(index);
+  return true;
+}
+
+// the enumerations first: they decide which other keys apply (valve is required; a chamber's flow law
+// defaults to its valve's); then whether seal friction and a supply reservoir are given
+bool ReadChoices(Parser& parser, const RawValues& raw, CylinderConfig* c) {
   const Param& valve = *FindParam("valve");
-  if (!lookup(raw.cylinder, valve, &text_value)) {
-    return fail("valve", "required (one of: " + std::string(valve.choices) + ")");
+  if (!raw.cylinder.count("valve")) {
+    return parser.Fail("valve", "required (one of: " + std::string(valve.choices) + ")");
   }
-  if (!parser.Choice(valve, "valve", text_value, &index)) return std::nullopt;
-  c.valve = static_cast<ValveKind>(index);
-  if (lookup(raw.cylinder, *FindParam("input"), &text_value)) {
-    if (!parser.Choice(*FindParam("input"), "input", text_value, &index)) return std::nullopt;
-    c.input = static_cast<CommandInput>(index);
-  }
-  if (lookup(raw.cylinder, *FindParam("pwm_alignment"), &text_value)) {
-    if (!parser.Choice(*FindParam("pwm_alignment"), "pwm_alignment", text_value, &index)) return std::nullopt;
-    c.pwm_alignment = static_cast<PwmAlignment>(index);
-  }
-  if (lookup(raw.cylinder, *FindParam("commands"), &text_value)) {
-    if (!parser.Choice(*FindParam("commands"), "commands", text_value, &index)) return std::nullopt;
-    c.commands = static_cast<CommandPlace>(index);
-  }
-  if (lookup(raw.cylinder, *FindParam("mount"), &text_value)) {
-    if (!parser.Choice(*FindParam("mount"), "mount", text_value, &index)) return std::nullopt;
-    c.mount = static_cast<Mount>(index);
-  }
-  if (lookup(raw.cylinder, *FindParam("step"), &text_value)) {
-    if (!parser.Choice(*FindParam("step"), "step", text_value, &index)) return std::nullopt;
-    c.step = static_cast<ChamberStep>(index);
-  }
-  if (lookup(raw.cylinder, *FindParam("friction_model"), &text_value)) {
-    if (!parser.Choice(*FindParam("friction_model"), "friction_model", text_value, &index)) return std::nullopt;
-    c.friction_model = static_cast<FrictionModel>(index);
-  }
-  if (lookup(raw.cylinder, *FindParam("thermal_model"), &text_value)) {
-    if (!parser.Choice(*FindParam("thermal_model"), "thermal_model", text_value, &index)) return std::nullopt;
-    c.thermal_model = static_cast<ThermalModel>(index);
+  if (!ReadChoice(parser, raw.cylinder, "valve", "valve", &c->valve) ||
+      !ReadChoice(parser, raw.cylinder, "input", "input", &c->input) ||
+      !ReadChoice(parser, raw.cylinder, "pwm_alignment", "pwm_alignment", &c->pwm_alignment) ||
+      !ReadChoice(parser, raw.cylinder, "commands", "commands", &c->commands) ||
+      !ReadChoice(parser, raw.cylinder, "mount", "mount", &c->mount) ||
+      !ReadChoice(parser, raw.cylinder, "step", "step", &c->step) ||
+      !ReadChoice(parser, raw.cylinder, "friction_model", "friction_model", &c->friction_model) ||
+      !ReadChoice(parser, raw.cylinder, "thermal_model", "thermal_model", &c->thermal_model)) {
+    return false;
   }
   for (int k = 0; k < 2; ++k) {
-    ChamberConfig& ch = c.chamber[k];
-    ch.flow = c.valve == ValveKind::kOnOff           ? FlowLaw::kIso6358
-              : c.valve == ValveKind::kProportional53 ? FlowLaw::kSanville
-                                                      : FlowLaw::kThinPlate;
-    if (lookup(raw.chamber[k], *FindParam("flow"), &text_value)) {
-      if (!parser.Choice(*FindParam("flow"), prefixed(k, "flow"), text_value, &index)) return std::nullopt;
-      ch.flow = static_cast<FlowLaw>(index);
-    }
-    if (lookup(raw.chamber[k], *FindParam("pressure_model"), &text_value)) {
-      if (!parser.Choice(*FindParam("pressure_model"), prefixed(k, "pressure_model"), text_value, &index)) {
-        return std::nullopt;
-      }
-      ch.model = static_cast<PressureModel>(index);
+    ChamberConfig& ch = c->chamber[k];
+    ch.flow = c->valve == ValveKind::kOnOff           ? FlowLaw::kIso6358
+              : c->valve == ValveKind::kProportional53 ? FlowLaw::kSanville
+                                                       : FlowLaw::kThinPlate;
+    if (!ReadChoice(parser, raw.chamber[k], "flow", Prefixed(k, "flow"), &ch.flow) ||
+        !ReadChoice(parser, raw.chamber[k], "pressure_model", Prefixed(k, "pressure_model"), &ch.model)) {
+      return false;
     }
   }
-  if (raw.cylinder.count("coulomb_friction")) c.coulomb_friction = 0.0;
+  if (raw.cylinder.count("coulomb_friction")) c->coulomb_friction = 0.0;
   if (raw.cylinder.count("supply") && raw.cylinder.at("supply") != "none") {
-    c.supply = raw.cylinder.at("supply");
-    if (c.supply.find_first_of(".,=") != std::string::npos) {
-      return fail("supply", "'" + c.supply + "' is not a reservoir name (no '.', ',' or '=')");
+    c->supply = raw.cylinder.at("supply");
+    if (c->supply.find_first_of(".,=") != std::string::npos) {
+      return parser.Fail("supply", "'" + c->supply + "' is not a reservoir name (no '.', ',' or '=')");
     }
   }
+  return true;
+}
 
-  // choices given where they do not apply, and choices that rule each other out
+// choices given where they do not apply, and choices that rule each other out
+bool CheckChoices(Parser& parser, const RawValues& raw, const CylinderConfig& c) {
   for (const Param& p : kParams) {
     if (!p.choices || p.scope != Scope::kCylinder) continue;
     if (raw.cylinder.count(p.key) && !Applies(p.applies, c, nullptr)) {
-      return fail(p.key, std::string("applies only to ") + AppliesText(p.applies));
+      return parser.Fail(p.key, std::string("applies only to ") + AppliesText(p.applies));
     }
   }
   for (int k = 0; k < 2; ++k) {
     if (c.chamber[k].model == PressureModel::kIdentified && c.valve == ValveKind::kOnOff) {
-      return fail(prefixed(k, "pressure_model"), "the identified model of paper 000 needs a proportional valve command");
+      return parser.Fail(Prefixed(k, "pressure_model"), "the identified model of paper 000 needs a proportional valve command");
     }
   }
+  return true;
+}
 
-  // numbers: the table's literal defaults first, for every key, so the struct is fully defined
-  auto chambers_of = [](const Param& p) {
-    return p.scope == Scope::kCylinder ? std::vector<int>{-1} : std::vector<int>{0, 1};
-  };
+// the value slots of a row: -1 for the cylinder's own value, 0 and 1 for chamber P's and N's
+std::vector<int> ChambersOf(const Param& p) {
+  return p.scope == Scope::kCylinder ? std::vector<int>{-1} : std::vector<int>{0, 1};
+}
+
+// the table's literal defaults, for every number key, so the struct is fully defined
+void ApplyLiteralDefaults(CylinderConfig* c) {
   for (const Param& p : kParams) {
     double v = 0;
     if (!p.field || !LiteralDefault(p, &v)) continue;
-    for (int k : chambers_of(p)) p.field(c, std::max(k, 0)) = v;
+    for (int k : ChambersOf(p)) p.field(*c, std::max(k, 0)) = v;
   }
-  // then the values given, range-checked (k = -1: the cylinder's own value; 0, 1: chamber P's and N's)
-  std::set<std::string> given_keys;
+}
+
+// the numbers given, range-checked: a key given where it does not apply, or missing where it is required,
+// is an error; *given_keys gets the prefixed keys given
+bool ReadNumbers(Parser& parser, const RawValues& raw, CylinderConfig* c, std::set<std::string>* given_keys) {
+  std::string text_value;
   for (const Param& p : kParams) {
     if (p.choices || p.is_name) continue;
-    for (int k : chambers_of(p)) {
+    for (int k : ChambersOf(p)) {
       const auto& values = k < 0 ? raw.cylinder : raw.chamber[k];
-      const ChamberConfig* chamber = k < 0 ? nullptr : &c.chamber[k];
-      std::string key = prefixed(k, p.key);
-      bool given = lookup(values, p, &text_value);
-      if (!Applies(p.applies, c, chamber)) {
-        if (given) return fail(key, std::string("applies only to ") + AppliesText(p.applies));
+      const ChamberConfig* chamber = k < 0 ? nullptr : &c->chamber[k];
+      std::string key = Prefixed(k, p.key);
+      bool given = Given(values, p, &text_value);
+      if (!Applies(p.applies, *c, chamber)) {
+        if (given) return parser.Fail(key, std::string("applies only to ") + AppliesText(p.applies));
         continue;
       }
       if (!given) {
-        if (!p.default_value) return fail(key, std::string("required for ") + AppliesText(p.applies));
+        if (!p.default_value) return parser.Fail(key, std::string("required for ") + AppliesText(p.applies));
         continue;
       }
       double v = 0;
-      if (!parser.Number(p, key, text_value, &v)) return std::nullopt;
-      if (p.field) p.field(c, std::max(k, 0)) = v;
-      if (std::string(p.key) == "coulomb_friction") c.coulomb_friction = v;
-      given_keys.insert(key);
+      if (!parser.Number(p, key, text_value, &v)) return false;
+      if (p.field) p.field(*c, std::max(k, 0)) = v;
+      if (std::string(p.key) == "coulomb_friction") c->coulomb_friction = v;
+      given_keys->insert(key);
     }
   }
-  // defaults derived from other keys
-  if (!given_keys.count("p_atm")) c.p_atm = c.p_exhaust;
+  return true;
+}
+
+// defaults derived from other keys, where the key was not given
+void DeriveDefaults(const std::set<std::string>& given_keys, CylinderConfig* c) {
+  if (!given_keys.count("p_atm")) c->p_atm = c->p_exhaust;
   // paper 001's spool lag for the 5/3 valve; none for the per-chamber valves (paper 000 has none)
   if (!given_keys.count("spool_time_constant")) {
-    c.spool_time_constant = c.valve == ValveKind::kProportional53 ? 0.0042 : 0.0;
+    c->spool_time_constant = c->valve == ValveKind::kProportional53 ? 0.0042 : 0.0;
   }
   for (int k = 0; k < 2; ++k) {
-    ChamberConfig& ch = c.chamber[k];
-    auto given = [&](const char* key) { return given_keys.count(prefixed(k, key)) > 0; };
+    ChamberConfig& ch = c->chamber[k];
+    auto given = [&](const char* key) { return given_keys.count(Prefixed(k, key)) > 0; };
     if (!given("critical_ratio")) ch.critical_ratio = ch.flow == FlowLaw::kSanville ? 0.2 : 0.433;
-    if (!given("c_b")) ch.identified.c_b = (c.p_supply + c.p_exhaust) / 2;
-    if (!given("c_s")) ch.identified.c_s = (c.p_supply - c.p_exhaust) / 2;
+    if (!given("c_b")) ch.identified.c_b = (c->p_supply + c->p_exhaust) / 2;
+    if (!given("c_s")) ch.identified.c_s = (c->p_supply - c->p_exhaust) / 2;
   }
+}
 
-  // relations between keys
+// relations between keys: the supply above the exhaust; seal friction with the mount and LuGre's levels
+bool CheckPressuresAndFriction(Parser& parser, const CylinderConfig& c) {
   if (c.p_supply <= c.p_exhaust) {
-    return fail("p_supply", "must exceed p_exhaust (" + FormatBound(c.p_exhaust) + " Pa)");
+    return parser.Fail("p_supply", "must exceed p_exhaust (" + FormatBound(c.p_exhaust) + " Pa)");
   }
   if (c.mount == Mount::kHingeSites && c.coulomb_friction) {
-    return fail("coulomb_friction", "seal friction takes its static level from the transmission's frictionloss, in "
-                                    "piston units; with mount=hinge_sites the lever arm changes with the angle: "
-                                    "use mount=transmission (a spatial tendon between the two sites)");
+    return parser.Fail("coulomb_friction", "seal friction takes its static level from the transmission's frictionloss, in "
+                                           "piston units; with mount=hinge_sites the lever arm changes with the angle: "
+                                           "use mount=transmission (a spatial tendon between the two sites)");
   }
   if (c.friction_model == FrictionModel::kLuGre) {
     if (!c.coulomb_friction) {
-      return fail("coulomb_friction", "required for friction_model=lugre (F_c, the sliding level of g(v))");
+      return parser.Fail("coulomb_friction", "required for friction_model=lugre (F_c, the sliding level of g(v))");
     }
     if (c.static_friction < *c.coulomb_friction) {
-      return fail("static_friction", "must be at least coulomb_friction (" + FormatBound(*c.coulomb_friction) +
-                                         "): F_s is the breakaway level, F_c the sliding one");
+      return parser.Fail("static_friction", "must be at least coulomb_friction (" + FormatBound(*c.coulomb_friction) +
+                                                "): F_s is the breakaway level, F_c the sliding one");
     }
   }
+  return true;
+}
+
+// relations between keys: the energy equation and the lines need the physical model and their own
+// implicit steps
+bool CheckThermalAndLines(Parser& parser, const CylinderConfig& c) {
   if (c.thermal_model == ThermalModel::kEnergy) {
     for (int k = 0; k < 2; ++k) {
       if (c.chamber[k].model != PressureModel::kPhysical) {
-        return fail("thermal_model", "energy needs the physical pressure model in both chambers (" +
-                                         prefixed(k, "pressure_model") + " is identified)");
+        return parser.Fail("thermal_model", "energy needs the physical pressure model in both chambers (" +
+                                                Prefixed(k, "pressure_model") + " is identified)");
       }
     }
     if (c.step == ChamberStep::kExplicit) {
-      return fail("thermal_model", "energy has its own implicit step: use step=linearized or step=exact (the same for it)");
+      return parser.Fail("thermal_model", "energy has its own implicit step: use step=linearized or step=exact (the same for it)");
     }
   }
   for (int k = 0; k < 2; ++k) {
     if (c.chamber[k].line_volume <= 0) continue;
-    std::string key = prefixed(k, "line_volume");
-    if (c.chamber[k].model != PressureModel::kPhysical) return fail(key, "a line needs the physical pressure model");
-    if (c.thermal_model == ThermalModel::kEnergy) return fail(key, "not combined with thermal_model=energy in this version");
-    if (c.step == ChamberStep::kExplicit) return fail(key, "a line has its own implicit step: use step=linearized or step=exact");
+    std::string key = Prefixed(k, "line_volume");
+    if (c.chamber[k].model != PressureModel::kPhysical) return parser.Fail(key, "a line needs the physical pressure model");
+    if (c.thermal_model == ThermalModel::kEnergy) return parser.Fail(key, "not combined with thermal_model=energy in this version");
+    if (c.step == ChamberStep::kExplicit) return parser.Fail(key, "a line has its own implicit step: use step=linearized or step=exact");
   }
+  return true;
+}
+
+// relations between keys: the identified model of paper 000 maps the command voltage itself (its valve's
+// dynamics are in its fit), so no dead time or valve lag goes before it
+bool CheckIdentifiedCommand(Parser& parser, const CylinderConfig& c) {
   for (int k = 0; k < 2; ++k) {
-    // the identified model of paper 000 maps the command voltage itself (its valve's dynamics are in its fit)
     if (c.chamber[k].model != PressureModel::kIdentified) continue;
     if (c.CommandDeadTime() > 0) {
-      return fail(c.spool_dead_time > 0 ? "spool_dead_time" : "line_delay", "needs the physical pressure model in both chambers (" + prefixed(k, "pressure_model") +
+      return parser.Fail(c.spool_dead_time > 0 ? "spool_dead_time" : "line_delay", "needs the physical pressure model in both chambers (" + Prefixed(k, "pressure_model") +
                                          " is identified: the identified model of paper 000 takes the command voltage)");
     }
     if (c.valve == ValveKind::kProportionalPerChamber && c.spool_time_constant > 0) {
-      return fail("spool_time_constant", "needs the physical pressure model in both chambers (" + prefixed(k, "pressure_model") +
+      return parser.Fail("spool_time_constant", "needs the physical pressure model in both chambers (" + Prefixed(k, "pressure_model") +
                                              " is identified: the identified model of paper 000 takes the command voltage)");
     }
   }
+  return true;
+}
+
+// relations between keys: where the valve commands live (commands=chambers) and what switched PWM needs
+bool CheckCommandPlace(Parser& parser, const CylinderConfig& c) {
   bool delays = c.delay_open > 0 || c.delay_close > 0;
   if (c.commands == CommandPlace::kChambers) {
     // a chamber actuator has one ctrl and one act: room for one command, none for a valve state
     if (c.valve == ValveKind::kOnOff && c.input == CommandInput::kValves) {
-      return fail("commands", "chambers holds two commands, one per chamber actuator; valve=onoff with input=valves has "
-                              "four (u1..u4): use input=pwm or commands=actuators");
+      return parser.Fail("commands", "chambers holds two commands, one per chamber actuator; valve=onoff with input=valves has "
+                                     "four (u1..u4): use input=pwm or commands=actuators");
     }
     if (delays) {
-      return fail(c.delay_open > 0 ? "delay_open" : "delay_close",
-                  "valve delays keep each armature in the act of its command actuator: use commands=actuators");
+      return parser.Fail(c.delay_open > 0 ? "delay_open" : "delay_close",
+                         "valve delays keep each armature in the act of its command actuator: use commands=actuators");
     }
     if (c.valve != ValveKind::kOnOff && c.spool_time_constant > 0) {
-      return fail("spool_time_constant", "a spool lag keeps its state in the act of the command actuator: set "
-                                         "spool_time_constant=0 or use commands=actuators");
+      return parser.Fail("spool_time_constant", "a spool lag keeps its state in the act of the command actuator: set "
+                                                "spool_time_constant=0 or use commands=actuators");
     }
   }
   if (c.input == CommandInput::kPwm && delays && c.pwm_frequency == 0) {
-    return fail(c.delay_open > 0 ? "delay_open" : "delay_close",
-                "valve delays need switched PWM (pwm_frequency > 0), the averaged model has no switching instants");
+    return parser.Fail(c.delay_open > 0 ? "delay_open" : "delay_close",
+                       "valve delays need switched PWM (pwm_frequency > 0), the averaged model has no switching instants");
   }
+  return true;
+}
+
+// relations between keys, chamber by chamber: a reservoir needs the physical model, iso6358 rates only
+// on/off valves, and the identified model's volume sensor stays positive over the stroke
+bool CheckChamberModels(Parser& parser, const CylinderConfig& c) {
   for (int k = 0; k < 2; ++k) {
     if (!c.supply.empty() && c.chamber[k].model == PressureModel::kIdentified) {
-      return fail("supply", "a cylinder fed by a reservoir needs the physical pressure model in both chambers "
-                            "(the identified model of paper 000 has no supply pressure to follow)");
+      return parser.Fail("supply", "a cylinder fed by a reservoir needs the physical pressure model in both chambers "
+                                   "(the identified model of paper 000 has no supply pressure to follow)");
     }
   }
   for (int k = 0; k < 2; ++k) {
     const ChamberConfig& ch = c.chamber[k];
     std::string side = k == 0 ? "P." : "N.";
     if (ch.flow == FlowLaw::kIso6358 && c.valve != ValveKind::kOnOff) {
-      return fail(side + "flow",
-                  "iso6358 rates a fully open on/off valve; proportional valves take flow=sanville or flow=thin_plate");
+      return parser.Fail(side + "flow",
+                         "iso6358 rates a fully open on/off valve; proportional valves take flow=sanville or flow=thin_plate");
     }
     if (ch.model == PressureModel::kIdentified) {
       // paper 000 eq. 10e: the rate's denominator 1 + c6 v must stay positive over the stroke
       double worst = 1 - std::fabs(ch.identified.c[6]) * c.stroke / 2;
       if (worst <= 0) {
-        return fail(side + "c6", "1 + c6 x must stay positive for |x| <= stroke/2");
+        return parser.Fail(side + "c6", "1 + c6 x must stay positive for |x| <= stroke/2");
       }
     }
+  }
+  return true;
+}
+
+}  // namespace
+
+std::optional<CylinderConfig> ParseCylinderConfig(const std::string& name, const std::string& text,
+                                                  std::string* error) {
+  // key=value tokens; the choices, which decide which keys apply; the numbers, range-checked against the
+  // table; the defaults derived from other keys; the relations between keys
+  Parser parser(name, error);
+  RawValues raw;
+  if (!parser.Split(text, &raw) || !CheckName(name, error)) return std::nullopt;
+  CylinderConfig c;
+  c.name = name;
+  std::set<std::string> given_keys;
+  if (!ReadChoices(parser, raw, &c) || !CheckChoices(parser, raw, c)) return std::nullopt;
+  ApplyLiteralDefaults(&c);
+  if (!ReadNumbers(parser, raw, &c, &given_keys)) return std::nullopt;
+  DeriveDefaults(given_keys, &c);
+  if (!CheckPressuresAndFriction(parser, c) || !CheckThermalAndLines(parser, c) || !CheckIdentifiedCommand(parser, c) ||
+      !CheckCommandPlace(parser, c) || !CheckChamberModels(parser, c)) {
+    return std::nullopt;
   }
   return c;
 }

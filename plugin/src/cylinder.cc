@@ -84,6 +84,51 @@ std::string BindHingeSites(const mjModel* m, const std::string& name, int actuat
   return "";
 }
 
+// "cylinder '<name>': actuator '<actuator>': <message>": an actuator the configuration needs, as the model has it
+std::string ActuatorProblem(const std::string& cylinder, const std::string& actuator, const std::string& message) {
+  return "cylinder '" + cylinder + "': actuator '" + actuator + "': " + message;
+}
+
+// "cylinder '<name>': key '<key>': <message>": a key the model contradicts
+std::string KeyProblem(const std::string& cylinder, const std::string& key, const std::string& message) {
+  return "cylinder '" + cylinder + "': key '" + key + "': " + message;
+}
+
+// role r's actuator is missing: "missing: <why> (role '<suffix>', required by <keys>)", with "{}" in
+// `why` standing for the cylinder's name
+std::string MissingRole(const std::string& cylinder, const RoleSpec& r, std::string why) {
+  for (size_t at = why.find("{}"); at != std::string::npos; at = why.find("{}", at + cylinder.size())) {
+    why.replace(at, 2, cylinder);
+  }
+  return ActuatorProblem(cylinder, cylinder + "." + r.suffix,
+                         "missing: " + why + " (role '" + r.suffix + "', required by " + r.required_by + ")");
+}
+
+// the valve roles of the role table (roles.h) this configuration uses: its valve commands (their ctrl)
+// and its valve states (their act), in ValveInputs order
+void ValveRoles(const CylinderConfig& cfg, std::vector<const RoleSpec*>* commands,
+                std::vector<const RoleSpec*>* states) {
+  int row_count = 0;
+  const RoleSpec* rows = RoleTable(&row_count);
+  for (int i = 0; i < row_count; ++i) {
+    const RoleSpec& r = rows[i];
+    if (r.owner != RoleOwner::kCylinder || r.role != Role::kCommand) continue;
+    if (r.command(&cfg)) commands->push_back(&r);
+    if (r.state(&cfg)) states->push_back(&r);
+  }
+}
+
+// switched PWM: the step holds a bounded number of carrier edges
+std::string PwmCarrierProblem(const mjModel* m, const CylinderConfig& cfg) {
+  if (cfg.input == CommandInput::kPwm && cfg.pwm_frequency * m->opt.timestep > kMaxPwmPeriodsPerStep) {
+    return KeyProblem(cfg.name, "pwm_frequency", FormatNumber(cfg.pwm_frequency) + " Hz puts more than " +
+                                                     FormatNumber(kMaxPwmPeriodsPerStep) + " carrier periods in one " +
+                                                     FormatNumber(m->opt.timestep) +
+                                                     " s step; use a shorter timestep or the averaged model (pwm_frequency=0)");
+  }
+  return "";
+}
+
 }  // namespace
 
 // mount=hinge_sites: the cylinder's length L = |rod - cap| and its lever arm dL/dq = u . (a x (rod - anchor)),
@@ -111,43 +156,36 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
                                             std::string* error) {
   Cylinder c;
   c.config_ = std::move(config);
-  const CylinderConfig& cfg = c.config_;
-  const std::string& name = cfg.name;
-  auto fail = [&](const std::string& actuator, const std::string& message) -> std::optional<Cylinder> {
-    *error = "cylinder '" + name + "': actuator '" + actuator + "': " + message;
+  // each step binds one group of the actuators the role table (roles.h) asks of this configuration and
+  // checks them against the model; the first problem found is the error
+  std::string problem = c.BindChambers(m, gains_written);
+  if (problem.empty()) problem = c.BindTransmission(m);
+  if (problem.empty()) problem = c.BindValves(m);
+  if (problem.empty()) problem = c.BindFriction(m);
+  if (problem.empty()) problem = c.BindExtraStates(m);
+  if (problem.empty()) problem = c.RefuseOtherActuators(m);
+  if (problem.empty()) problem = PwmCarrierProblem(m, c.config_);
+  if (!problem.empty()) {
+    *error = problem;
     return std::nullopt;
-  };
-
-  // the actuators this configuration needs, from the role table (roles.h)
-  int row_count = 0;
-  const RoleSpec* rows = RoleTable(&row_count);
-  auto replace_name = [&](std::string text) {
-    for (size_t at = text.find("{}"); at != std::string::npos; at = text.find("{}", at + name.size())) {
-      text.replace(at, 2, name);
-    }
-    return text;
-  };
-  // "missing: <why> (role '<suffix>', required by <keys>)"
-  auto missing = [&](const RoleSpec& r, const std::string& why) {
-    return fail(name + "." + r.suffix, "missing: " + replace_name(why) + " (role '" + r.suffix + "', required by " +
-                                           r.required_by + ")");
-  };
-  // valve commands (their ctrl) and valve states (their act), in ValveInputs order
-  std::vector<const RoleSpec*> commands, states;
-  for (int i = 0; i < row_count; ++i) {
-    const RoleSpec& r = rows[i];
-    if (r.owner != RoleOwner::kCylinder || r.role != Role::kCommand) continue;
-    if (r.command(&cfg)) commands.push_back(&r);
-    if (r.state(&cfg)) states.push_back(&r);
   }
+  c.PrepareSteps();
+  return c;
+}
 
-  // chambers: user dynamics and gain, no bias, one shared transmission
+// chambers: user dynamics and gain, no bias, one shared transmission
+std::string Cylinder::BindChambers(const mjModel* m, bool gains_written) {
+  const CylinderConfig& cfg = config_;
+  const std::string& name = cfg.name;
+  auto fail = [&](const std::string& actuator, const std::string& message) {
+    return ActuatorProblem(name, actuator, message);
+  };
   const char* chamber_names[2] = {"P", "N"};
   for (int k = 0; k < 2; ++k) {
     const RoleSpec& role = *FindRole(RoleOwner::kCylinder, chamber_names[k]);
     std::string full = name + "." + chamber_names[k];
     int id = mj_name2id(m, mjOBJ_ACTUATOR, full.c_str());
-    if (id < 0) return missing(role, role.missing);
+    if (id < 0) return MissingRole(name, role, role.missing);
     if (m->actuator_dyntype[id] != mjDYN_USER) return fail(full, "needs dyntype=\"user\" (its act is the chamber's gauge pressure)");
     // user as written in MJCF; fixed once attached (WriteGains: +A_P, -A_N)
     double area_gain = k == 0 ? cfg.chamber[0].area : -cfg.chamber[1].area;
@@ -165,52 +203,68 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
     if (m->actuator_biastype[id] != mjBIAS_NONE) return fail(full, "needs biastype=\"none\"");
     if (m->actuator_actlimited[id]) return fail(full, "must not be actlimited: MuJoCo would clip the chamber pressure");
     if (m->actuator_gear[6 * id] == 0) return fail(full, "gear is 0: the cylinder could neither move nor push");
-    c.info_.chamber_actuator[k] = id;
-    c.actuators_.push_back({id, {Role::kChamber, -1, k}});
+    info_.chamber_actuator[k] = id;
+    actuators_.push_back({id, {Role::kChamber, -1, k}});
   }
-  int p_id = c.info_.chamber_actuator[0], n_id = c.info_.chamber_actuator[1];
+  return "";
+}
+
+// the chambers' transmission: a slide or hinge joint (its dof kept for the step), a slider-crank or a
+// tendon, the same for both chambers; with mount=hinge_sites, the hinge and the sites the cylinder spans
+std::string Cylinder::BindTransmission(const mjModel* m) {
+  const std::string& name = config_.name;
+  int p_id = info_.chamber_actuator[0], n_id = info_.chamber_actuator[1];
   std::string p_name = name + ".P";
   int trntype = m->actuator_trntype[p_id];
   if (trntype == mjTRN_JOINT || trntype == mjTRN_JOINTINPARENT) {
     int joint = m->actuator_trnid[2 * p_id];
     if (m->jnt_type[joint] != mjJNT_SLIDE && m->jnt_type[joint] != mjJNT_HINGE) {
-      return fail(p_name, "a cylinder drives a slide or hinge joint, a slider-crank or a tendon; joint '" +
-                              std::string(mj_id2name(m, mjOBJ_JOINT, joint) ? mj_id2name(m, mjOBJ_JOINT, joint) : "?") +
-                              "' is a ball or free joint");
+      return ActuatorProblem(name, p_name, "a cylinder drives a slide or hinge joint, a slider-crank or a tendon; joint '" +
+                                               std::string(mj_id2name(m, mjOBJ_JOINT, joint) ? mj_id2name(m, mjOBJ_JOINT, joint) : "?") +
+                                               "' is a ball or free joint");
     }
   } else if (trntype != mjTRN_SLIDERCRANK && trntype != mjTRN_TENDON) {
-    return fail(p_name, "a cylinder drives a slide or hinge joint, a slider-crank or a tendon (site transmissions have no stroke)");
+    return ActuatorProblem(name, p_name, "a cylinder drives a slide or hinge joint, a slider-crank or a tendon (site transmissions have no stroke)");
   }
-  if (trntype == mjTRN_JOINT || trntype == mjTRN_JOINTINPARENT) c.dof_ = m->jnt_dofadr[m->actuator_trnid[2 * p_id]];
+  if (trntype == mjTRN_JOINT || trntype == mjTRN_JOINTINPARENT) dof_ = m->jnt_dofadr[m->actuator_trnid[2 * p_id]];
   if (!SameTransmission(m, p_id, n_id)) {
-    return fail(name + ".N", "must use the same transmission and gear as '" + p_name + "'");
+    return ActuatorProblem(name, name + ".N", "must use the same transmission and gear as '" + p_name + "'");
   }
-  if (cfg.mount == Mount::kHingeSites) {
-    if (std::string problem = BindHingeSites(m, name, p_id, &c.info_); !problem.empty()) {
-      *error = "cylinder '" + name + "': key 'mount': hinge_sites: " + problem;
-      return std::nullopt;
+  if (config_.mount == Mount::kHingeSites) {
+    if (std::string problem = BindHingeSites(m, name, p_id, &info_); !problem.empty()) {
+      return KeyProblem(name, "mount", "hinge_sites: " + problem);
     }
   }
+  return "";
+}
 
-  // valve commands and states
+// valve commands (their ctrl) and valve states (their act), in ValveInputs order: valve actuators apply
+// no force; those holding a valve state have user dynamics
+std::string Cylinder::BindValves(const mjModel* m) {
+  const CylinderConfig& cfg = config_;
+  const std::string& name = cfg.name;
+  auto fail = [&](const std::string& actuator, const std::string& message) {
+    return ActuatorProblem(name, actuator, message);
+  };
+  std::vector<const RoleSpec*> commands, states;
+  ValveRoles(cfg, &commands, &states);
   const bool in_chambers = cfg.commands == CommandPlace::kChambers;
   for (const RoleSpec* r : commands) {
     std::string full = name + "." + r->suffix;
     // commands=chambers (no valve states, at most two commands: the parser sees to it): command i is
     // the ctrl of chamber i's actuator (uP, u and duty: P; uN: N)
-    int id = in_chambers ? c.info_.chamber_actuator[r->index] : mj_name2id(m, mjOBJ_ACTUATOR, full.c_str());
-    if (id < 0) return missing(*r, r->missing);
-    c.command_id_[r->index] = id;
-    c.info_.command_actuators.push_back({r->suffix, id});
+    int id = in_chambers ? info_.chamber_actuator[r->index] : mj_name2id(m, mjOBJ_ACTUATOR, full.c_str());
+    if (id < 0) return MissingRole(name, *r, r->missing);
+    command_id_[r->index] = id;
+    info_.command_actuators.push_back({r->suffix, id});
   }
-  if (in_chambers) commands.clear();  // held by the chambers, whose checks are above
+  if (in_chambers) commands.clear();  // held by the chambers, whose checks are in BindChambers
   for (const RoleSpec* r : states) {
     std::string full = name + "." + r->suffix;
     int id = mj_name2id(m, mjOBJ_ACTUATOR, full.c_str());
-    if (id < 0) return missing(*r, "it holds the state of a valve with delays");
-    c.state_id_[r->index] = id;
+    if (id < 0) return MissingRole(name, *r, "it holds the state of a valve with delays");
+    state_id_[r->index] = id;
   }
-  // valve actuators apply no force; those holding a valve state have user dynamics
   std::vector<const RoleSpec*> valve_roles = commands;
   for (const RoleSpec* role : states) {
     if (std::find(commands.begin(), commands.end(), role) == commands.end()) valve_roles.push_back(role);
@@ -238,74 +292,93 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
     }
     // index: which ValveInputs::state entry this actuator's act holds
     int index = stateful ? role->index : -1;
-    c.actuators_.push_back({id, {Role::kCommand, -1, index}});
+    actuators_.push_back({id, {Role::kCommand, -1, index}});
   }
+  return "";
+}
 
-  // seal friction: Coulomb level below the transmission's frictionloss (the static level)
+// seal friction: Coulomb level below the transmission's frictionloss (the static level)
+std::string Cylinder::BindFriction(const mjModel* m) {
+  const CylinderConfig& cfg = config_;
+  const std::string& name = cfg.name;
+  auto fail = [&](const std::string& actuator, const std::string& message) {
+    return ActuatorProblem(name, actuator, message);
+  };
+  int p_id = info_.chamber_actuator[0];
+  int trntype = m->actuator_trntype[p_id];
   std::string friction_name = name + ".friction";
   int friction_id = mj_name2id(m, mjOBJ_ACTUATOR, friction_name.c_str());
   const RoleSpec& friction_role = *FindRole(RoleOwner::kCylinder, "friction");
-  if (RoleRequired(friction_role, &cfg)) {
-    if (friction_id < 0) return missing(friction_role, friction_role.missing);
-    if (m->actuator_dyntype[friction_id] != mjDYN_NONE || m->actuator_biastype[friction_id] != mjBIAS_USER ||
-        !(m->actuator_gaintype[friction_id] == mjGAIN_USER ||
-          (m->actuator_gaintype[friction_id] == mjGAIN_FIXED && m->actuator_gainprm[friction_id * mjNGAIN] == 0))) {
-      return fail(friction_name, "needs dyntype=\"none\", gaintype=\"user\" and biastype=\"user\"");
-    }
-    if (!SameTransmission(m, p_id, friction_id)) return fail(friction_name, "must use the same transmission as '" + p_name + "'");
-    double gear = std::fabs(m->actuator_gear[6 * p_id]);
-    int target = m->actuator_trnid[2 * p_id];
-    double frictionloss = trntype == mjTRN_TENDON     ? m->tendon_frictionloss[target]
-                          : trntype == mjTRN_SLIDERCRANK ? -1
-                                                      : m->dof_frictionloss[m->jnt_dofadr[target]];
-    if (cfg.friction_model == FrictionModel::kLuGre) {
-      // LuGre holds the piston itself (its bristles): a frictionloss constraint would add a second static level
-      if (frictionloss > 0) {
-        const char* what = trntype == mjTRN_TENDON ? "tendon" : "joint";
-        const char* object = mj_id2name(m, trntype == mjTRN_TENDON ? mjOBJ_TENDON : mjOBJ_JOINT, target);
-        *error = "cylinder '" + name + "': key 'friction_model': lugre provides the static friction itself " +
-                 "(static_friction), but " + what + " '" + (object ? object : "?") + "' has frictionloss=" +
-                 FormatNumber(frictionloss) + "; set it to 0";
-        return std::nullopt;
-      }
-    } else {
-      if (frictionloss < 0) return fail(friction_name, "seal friction needs a joint or tendon transmission (its frictionloss is the static friction)");
-      c.static_friction_ = gear > 0 ? frictionloss / gear : 0;
-      if (*cfg.coulomb_friction > c.static_friction_) {
-        *error = "cylinder '" + name + "': key 'coulomb_friction': " + std::to_string(*cfg.coulomb_friction) +
-                 " exceeds the static friction, the frictionloss of the transmission (" +
-                 std::to_string(c.static_friction_) + "); set frictionloss to the static level";
-        return std::nullopt;
-      }
-    }
-    c.actuators_.push_back({friction_id, {Role::kFriction, -1, 0}});
-  } else if (friction_id >= 0) {
-    return fail(friction_name, "present but coulomb_friction is not set");
+  if (!RoleRequired(friction_role, &cfg)) {
+    return friction_id >= 0 ? fail(friction_name, "present but coulomb_friction is not set") : "";
   }
+  if (friction_id < 0) return MissingRole(name, friction_role, friction_role.missing);
+  if (m->actuator_dyntype[friction_id] != mjDYN_NONE || m->actuator_biastype[friction_id] != mjBIAS_USER ||
+      !(m->actuator_gaintype[friction_id] == mjGAIN_USER ||
+        (m->actuator_gaintype[friction_id] == mjGAIN_FIXED && m->actuator_gainprm[friction_id * mjNGAIN] == 0))) {
+    return fail(friction_name, "needs dyntype=\"none\", gaintype=\"user\" and biastype=\"user\"");
+  }
+  if (!SameTransmission(m, p_id, friction_id)) return fail(friction_name, "must use the same transmission as '" + name + ".P'");
+  double gear = std::fabs(m->actuator_gear[6 * p_id]);
+  int target = m->actuator_trnid[2 * p_id];
+  double frictionloss = trntype == mjTRN_TENDON     ? m->tendon_frictionloss[target]
+                        : trntype == mjTRN_SLIDERCRANK ? -1
+                                                    : m->dof_frictionloss[m->jnt_dofadr[target]];
+  if (cfg.friction_model == FrictionModel::kLuGre) {
+    // LuGre holds the piston itself (its bristles): a frictionloss constraint would add a second static level
+    if (frictionloss > 0) {
+      const char* what = trntype == mjTRN_TENDON ? "tendon" : "joint";
+      const char* object = mj_id2name(m, trntype == mjTRN_TENDON ? mjOBJ_TENDON : mjOBJ_JOINT, target);
+      return KeyProblem(name, "friction_model", std::string("lugre provides the static friction itself ") +
+                                                    "(static_friction), but " + what + " '" + (object ? object : "?") +
+                                                    "' has frictionloss=" + FormatNumber(frictionloss) + "; set it to 0");
+    }
+  } else {
+    if (frictionloss < 0) return fail(friction_name, "seal friction needs a joint or tendon transmission (its frictionloss is the static friction)");
+    static_friction_ = gear > 0 ? frictionloss / gear : 0;
+    if (*cfg.coulomb_friction > static_friction_) {
+      return KeyProblem(name, "coulomb_friction", std::to_string(*cfg.coulomb_friction) +
+                                                      " exceeds the static friction, the frictionloss of the transmission (" +
+                                                      std::to_string(static_friction_) + "); set frictionloss to the static level");
+    }
+  }
+  actuators_.push_back({friction_id, {Role::kFriction, -1, 0}});
+  return "";
+}
 
-  // extra states (rows of Role::kState: a delay line, a bristle, a gas temperature): user dynamics,
-  // no force; the step writes their act_dot
+// extra states (rows of Role::kState: a delay line, a bristle, a gas temperature): user dynamics,
+// no force; the step writes their act_dot
+std::string Cylinder::BindExtraStates(const mjModel* m) {
+  const std::string& name = config_.name;
+  int row_count = 0;
+  const RoleSpec* rows = RoleTable(&row_count);
   for (int i = 0; i < row_count; ++i) {
     const RoleSpec& r = rows[i];
-    if (r.owner != RoleOwner::kCylinder || r.role != Role::kState || !r.state(&cfg)) continue;
+    if (r.owner != RoleOwner::kCylinder || r.role != Role::kState || !r.state(&config_)) continue;
     std::string full = name + "." + r.suffix;
     int id = mj_name2id(m, mjOBJ_ACTUATOR, full.c_str());
-    if (id < 0) return missing(r, r.missing);
-    if (std::string problem = StateActuatorProblem(m, id, r); !problem.empty()) return fail(full, problem);
+    if (id < 0) return MissingRole(name, r, r.missing);
+    if (std::string problem = StateActuatorProblem(m, id, r); !problem.empty()) return ActuatorProblem(name, full, problem);
     if (r.index < 0 || r.index >= kMaxExtraStates) mju_error("pneumatic: role table: extra-state slot out of range");
-    c.extra_state_id_[r.index] = id;
-    if (r.index == kLineP || r.index == kLineN) c.info_.line_actuator[r.index - kLineP] = id;
-    c.has_extra_states_ = true;
-    c.actuators_.push_back({id, {Role::kState, -1, r.index}});
+    extra_state_id_[r.index] = id;
+    if (r.index == kLineP || r.index == kLineN) info_.line_actuator[r.index - kLineP] = id;
+    has_extra_states_ = true;
+    actuators_.push_back({id, {Role::kState, -1, r.index}});
   }
+  return "";
+}
 
-  // every other "<name>.*" actuator is a typo, belongs to another valve arrangement, or is a
-  // role this configuration does not use (the role table says which keys need it)
+// every other "<name>.*" actuator is a typo, belongs to another valve arrangement, or is a
+// role this configuration does not use (the role table says which keys need it)
+std::string Cylinder::RefuseOtherActuators(const mjModel* m) const {
+  const CylinderConfig& cfg = config_;
+  const std::string& name = cfg.name;
+  const bool in_chambers = cfg.commands == CommandPlace::kChambers;
   std::string prefix = name + ".";
   for (int id = 0; id < m->nu; ++id) {
     std::string actuator = ActuatorName(m, id);
     if (actuator.rfind(prefix, 0) != 0) continue;
-    bool known = std::any_of(c.actuators_.begin(), c.actuators_.end(), [&](const auto& a) { return a.first == id; });
+    bool known = std::any_of(actuators_.begin(), actuators_.end(), [&](const auto& a) { return a.first == id; });
     if (known) continue;
     std::string why = "has no role in this cylinder (valve and input decide the command actuators)";
     const RoleSpec* r = FindRole(RoleOwner::kCylinder, actuator.substr(prefix.size()));
@@ -315,42 +388,39 @@ std::optional<Cylinder> Cylinder::FromModel(const mjModel* m, CylinderConfig con
     } else if (r) {
       why += ": role '" + std::string(r->suffix) + "' is used with " + r->required_by;
     }
-    return fail(actuator, why);
+    return ActuatorProblem(name, actuator, why);
   }
+  return "";
+}
 
-  // switched PWM: the step holds a bounded number of carrier edges
-  if (cfg.input == CommandInput::kPwm && cfg.pwm_frequency * m->opt.timestep > kMaxPwmPeriodsPerStep) {
-    *error = "cylinder '" + name + "': key 'pwm_frequency': " + FormatNumber(cfg.pwm_frequency) +
-             " Hz puts more than " + FormatNumber(kMaxPwmPeriodsPerStep) + " carrier periods in one " +
-             FormatNumber(m->opt.timestep) + " s step; use a shorter timestep or the averaged model (pwm_frequency=0)";
-    return std::nullopt;
-  }
-
-  c.info_.name = name;
-  c.info_.p_atm = cfg.p_atm;
-  c.info_.p_supply = cfg.p_supply;
-  c.info_.p_exhaust = cfg.p_exhaust;
-  c.info_.x_mid = cfg.x_mid;
-  for (int k = 0; k < 2; ++k) c.chamber_model_[k] = MakeChamberModel(cfg, k);
+// what every step reads of the bound cylinder: its public info, its chambers' models, and the path a
+// step takes (batched, held voltages)
+void Cylinder::PrepareSteps() {
+  const CylinderConfig& cfg = config_;
+  info_.name = cfg.name;
+  info_.p_atm = cfg.p_atm;
+  info_.p_supply = cfg.p_supply;
+  info_.p_exhaust = cfg.p_exhaust;
+  info_.x_mid = cfg.x_mid;
+  for (int k = 0; k < 2; ++k) chamber_model_[k] = MakeChamberModel(cfg, k);
   // the chambers the batched linearized step takes: each on its own, physical and isothermal, straight
   // behind its valve, with nothing but the linearized step's own terms (Step takes every other case)
   bool batched = cfg.step == ChamberStep::kLinearized && cfg.thermal_model != ThermalModel::kEnergy &&
                  !(cfg.piston_leak_conductance > 0) && !(cfg.piston_leak_area > 0);
   for (int k = 0; k < 2; ++k) {
     batched = batched && cfg.chamber[k].model == PressureModel::kPhysical && !(cfg.chamber[k].line_volume > 0) &&
-              Batchable(c.chamber_model_[k]);
+              Batchable(chamber_model_[k]);
   }
-  c.batched_ = batched;
+  batched_ = batched;
   // a valve per chamber without a lag or a dead time holds its openings over the step (PortSchedule's own
   // case); with no valve states and no extra states, its two voltages are all a step reads besides the
   // chambers and the piston (BeginStep)
-  c.held_voltage_ = cfg.valve == ValveKind::kProportionalPerChamber &&
-                    !(cfg.CommandDeadTime() > 0 || cfg.spool_time_constant > 0);
-  c.voltages_only_ = c.held_voltage_ && !c.has_extra_states_ && cfg.friction_model != FrictionModel::kLuGre &&
-                     c.command_id_[0] >= 0 && c.command_id_[1] >= 0 &&
-                     c.command_id_[2] < 0 && c.command_id_[3] < 0 && c.ChambersFollowEndVelocity();
-  for (int i = 0; i < 4; ++i) c.voltages_only_ = c.voltages_only_ && c.state_id_[i] < 0;
-  return c;
+  held_voltage_ = cfg.valve == ValveKind::kProportionalPerChamber &&
+                  !(cfg.CommandDeadTime() > 0 || cfg.spool_time_constant > 0);
+  voltages_only_ = held_voltage_ && !has_extra_states_ && cfg.friction_model != FrictionModel::kLuGre &&
+                   command_id_[0] >= 0 && command_id_[1] >= 0 &&
+                   command_id_[2] < 0 && command_id_[3] < 0 && ChambersFollowEndVelocity();
+  for (int i = 0; i < 4; ++i) voltages_only_ = voltages_only_ && state_id_[i] < 0;
 }
 
 bool Cylinder::NeedsEndVelocity() const {
@@ -518,7 +588,7 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
                     double* supply_drawn) const {
   const double h = m->opt.timestep;
   ValveInputs valves;
-  double p0[2], p1[2] = {0, 0}, rate[2];
+  double p0[2], rate[2];
   double x_rate = 0;
   const PistonMotion motion = StartStep(m, d, pass, &valves, p0, &x_rate);
   // the chambers' models; a reservoir's pressure at the start of the step on the supply ports (copies
@@ -532,7 +602,6 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
   }
 
   // act_dot of each chamber: (p(t + h) - p(t)) / h, or dp/dt for step=explicit
-  const double leak = config_.piston_leak_conductance;
   bool physical[2];
   for (int k = 0; k < 2; ++k) physical[k] = config_.chamber[k].model == PressureModel::kPhysical;
 
@@ -545,131 +614,172 @@ void Cylinder::Step(const mjModel* m, mjData* d, const PassInputs& pass, const d
     rate[k] = config_.step == ChamberStep::kExplicit ? (sr.s - p0[k]) * sr.r
                                                      : (IdentifiedPressureStep(sr, p0[k], h) - p0[k]) / h;
   }
-
-  // thermal_model=energy (both chambers physical, step linearized or exact: the parser sees to it): each
-  // chamber's pressure and gas temperature by the energy equation's own implicit step; the leak across
-  // the piston as an exchange of mass and enthalpy at fixed volumes in two halves around those steps
-  // (Strang splitting, EnergyLeakExchange), which keeps the gas's mass and energy exactly
   if (config_.thermal_model == ThermalModel::kEnergy) {
-    PortSchedule ports[2] = {{config_, 0, valves}, {config_, 1, valves}};
-    const VolumePath volume[2] = {Volume(0, motion.x, x_rate), Volume(1, motion.x, x_rate)};
-    GasState start[2], gas[2];
-    for (int k = 0; k < 2; ++k) {
-      start[k] = {p0[k], Act(m, d, extra_state_id_[kTemperatureP + k]) + config_.temperature};
-      gas[k] = start[k];
-    }
-    const bool leaks = leak > 0 || config_.piston_leak_area > 0;
-    const double v_start[2] = {volume[0].At(0), volume[1].At(0)}, v_end[2] = {volume[0].At(h), volume[1].At(h)};
-    if (leaks) EnergyLeakExchange(models, v_start, leak, config_.piston_leak_area, h / 2, gas);
-    GasState end[2];
-    for (int k = 0; k < 2; ++k) {
-      double drawn = 0;
-      end[k] = EnergyPressureStep(models[k], ports[k], volume[k], 0, 0, gas[1 - k], gas[k], h,
-                                  supply_drawn ? &drawn : nullptr);
-      if (supply_drawn) *supply_drawn += drawn;
-    }
-    if (leaks) EnergyLeakExchange(models, v_end, leak, config_.piston_leak_area, h / 2, end);
-    for (int k = 0; k < 2; ++k) {
-      ActDot(m, d, info_.chamber_actuator[k]) = (end[k].p - p0[k]) / h;
-      ActDot(m, d, extra_state_id_[kTemperatureP + k]) = (end[k].t - start[k].t) / h;
-    }
+    StepEnergy(m, d, models, valves, motion, x_rate, p0, supply_drawn);
     return;
   }
+  if (physical[0] || physical[1]) PhysicalRates(m, d, models, valves, motion, x_rate, p0, rate, supply_drawn);
+  for (int k = 0; k < 2; ++k) ActDot(m, d, info_.chamber_actuator[k]) = rate[k];
+}
 
-  // the physical model: the valves' openings over the step and the volumes along the piston's path
-  if (physical[0] || physical[1]) {
-    PortSchedule ports[2] = {{config_, 0, valves}, {config_, 1, valves}};
-    VolumePath volume[2] = {Volume(0, motion.x, x_rate), Volume(1, motion.x, x_rate)};
-    bool done[2] = {false, false};
-    bool line[2] = {false, false};
-    for (int k = 0; k < 2; ++k) line[k] = physical[k] && config_.chamber[k].line_volume > 0;
-    // the leaks across the piston, as exchanges at fixed volumes in two halves around the chambers' steps
-    // (Strang splitting), where those steps do not hold them: the orifice (piston_leak_area) always, the
-    // laminar leak (piston_leak_conductance) when a chamber is behind a line (its step holds one chamber);
-    // the chambers step from pin, what the first halves leave
-    const bool both_implicit = physical[0] && physical[1] && config_.step != ChamberStep::kExplicit;
-    const double orifice = both_implicit ? config_.piston_leak_area : 0;
-    const bool split_laminar = both_implicit && leak > 0 && (line[0] || line[1]);
-    double pin[2] = {p0[0], p0[1]};
-    const double v_start_both[2] = {volume[0].At(0), volume[1].At(0)}, v_end_both[2] = {volume[0].At(h), volume[1].At(h)};
-    if (orifice > 0) PistonOrificeExchange(models, v_start_both, orifice, h / 2, pin);
-    const double p_before_laminar[2] = {pin[0], pin[1]};  // where the supply's accounting starts
-    if (split_laminar) PistonLeakExchange(models, v_start_both, leak, h / 2, pin);
-    // a chamber behind a line (line_volume > 0; the parser refuses step=explicit with it): line and
-    // chamber together by their own implicit step
-    double line_drawn = 0;
-    for (int k = 0; k < 2; ++k) {
-      if (!line[k]) continue;
-      int id = extra_state_id_[kLineP + k];
-      double line0 = Act(m, d, id) + config_.p_atm, line1 = line0, drawn = 0;
-      LinePressureStep(models[k], ports[k], volume[k], line0, pin[k], h, &line1, &p1[k], supply_drawn ? &drawn : nullptr);
-      ActDot(m, d, id) = (line1 - line0) / h;
-      line_drawn += drawn;
-      done[k] = true;
-    }
-    if (config_.step == ChamberStep::kLinearized) {
-      // both chambers in one call where both take it (coupled by the leak across the piston, or
-      // each on its own), else the one that does
-      const PortSchedule* schedules[2] = {&ports[0], &ports[1]};
-      const bool takes[2] = {physical[0] && !line[0], physical[1] && !line[1]};
-      if (takes[0] && takes[1]) {
-        LinearizedPressureStep(2, models, schedules, volume, leak, pin, h, p1, done);
-      } else {
-        for (int k = 0; k < 2; ++k) {
-          if (!takes[k]) continue;
-          LinearizedPressureStep(1, &models[k], &schedules[k], &volume[k], 0, &pin[k], h, &p1[k], &done[k]);
-        }
-      }
-    }
-    if (config_.step == ChamberStep::kExplicit) {
+// thermal_model=energy (both chambers physical, step linearized or exact: the parser sees to it): each
+// chamber's pressure and gas temperature by the energy equation's own implicit step; the leak across
+// the piston as an exchange of mass and enthalpy at fixed volumes in two halves around those steps
+// (Strang splitting, EnergyLeakExchange), which keeps the gas's mass and energy exactly
+void Cylinder::StepEnergy(const mjModel* m, mjData* d, const ChamberModel models[2], const ValveInputs& valves,
+                          const PistonMotion& motion, double x_rate, const double p0[2], double* supply_drawn) const {
+  const double h = m->opt.timestep;
+  const double leak = config_.piston_leak_conductance;
+  PortSchedule ports[2] = {{config_, 0, valves}, {config_, 1, valves}};
+  const VolumePath volume[2] = {Volume(0, motion.x, x_rate), Volume(1, motion.x, x_rate)};
+  GasState start[2], gas[2];
+  for (int k = 0; k < 2; ++k) {
+    start[k] = {p0[k], Act(m, d, extra_state_id_[kTemperatureP + k]) + config_.temperature};
+    gas[k] = start[k];
+  }
+  const bool leaks = leak > 0 || config_.piston_leak_area > 0;
+  const double v_start[2] = {volume[0].At(0), volume[1].At(0)}, v_end[2] = {volume[0].At(h), volume[1].At(h)};
+  if (leaks) EnergyLeakExchange(models, v_start, leak, config_.piston_leak_area, h / 2, gas);
+  GasState end[2];
+  for (int k = 0; k < 2; ++k) {
+    double drawn = 0;
+    end[k] = EnergyPressureStep(models[k], ports[k], volume[k], 0, 0, gas[1 - k], gas[k], h,
+                                supply_drawn ? &drawn : nullptr);
+    if (supply_drawn) *supply_drawn += drawn;
+  }
+  if (leaks) EnergyLeakExchange(models, v_end, leak, config_.piston_leak_area, h / 2, end);
+  for (int k = 0; k < 2; ++k) {
+    ActDot(m, d, info_.chamber_actuator[k]) = (end[k].p - p0[k]) / h;
+    ActDot(m, d, extra_state_id_[kTemperatureP + k]) = (end[k].t - start[k].t) / h;
+  }
+}
+
+// the physical model: the valves' openings over the step and the volumes along the piston's path;
+// writes rate[k] of each physical chamber (and the act_dot of its line, if it has one)
+void Cylinder::PhysicalRates(const mjModel* m, mjData* d, const ChamberModel models[2], const ValveInputs& valves,
+                             const PistonMotion& motion, double x_rate, const double p0[2], double rate[2],
+                             double* supply_drawn) const {
+  const double h = m->opt.timestep;
+  const double leak = config_.piston_leak_conductance;
+  bool physical[2];
+  for (int k = 0; k < 2; ++k) physical[k] = config_.chamber[k].model == PressureModel::kPhysical;
+  PortSchedule ports[2] = {{config_, 0, valves}, {config_, 1, valves}};
+  VolumePath volume[2] = {Volume(0, motion.x, x_rate), Volume(1, motion.x, x_rate)};
+  double p1[2] = {0, 0};
+  bool done[2] = {false, false};
+  bool line[2] = {false, false};
+  for (int k = 0; k < 2; ++k) line[k] = physical[k] && config_.chamber[k].line_volume > 0;
+  // the leaks across the piston, as exchanges at fixed volumes in two halves around the chambers' steps
+  // (Strang splitting), where those steps do not hold them: the orifice (piston_leak_area) always, the
+  // laminar leak (piston_leak_conductance) when a chamber is behind a line (its step holds one chamber);
+  // the chambers step from pin, what the first halves leave
+  const bool both_implicit = physical[0] && physical[1] && config_.step != ChamberStep::kExplicit;
+  const double orifice = both_implicit ? config_.piston_leak_area : 0;
+  const bool split_laminar = both_implicit && leak > 0 && (line[0] || line[1]);
+  double pin[2] = {p0[0], p0[1]};
+  const double v_start_both[2] = {volume[0].At(0), volume[1].At(0)}, v_end_both[2] = {volume[0].At(h), volume[1].At(h)};
+  if (orifice > 0) PistonOrificeExchange(models, v_start_both, orifice, h / 2, pin);
+  const double p_before_laminar[2] = {pin[0], pin[1]};  // where the supply's accounting starts
+  if (split_laminar) PistonLeakExchange(models, v_start_both, leak, h / 2, pin);
+  const double line_drawn = StepLines(m, d, models, ports, volume, line, pin, supply_drawn != nullptr, p1, done);
+  if (config_.step == ChamberStep::kLinearized) {
+    // both chambers in one call where both take it (coupled by the leak across the piston, or
+    // each on its own), else the one that does
+    const PortSchedule* schedules[2] = {&ports[0], &ports[1]};
+    const bool takes[2] = {physical[0] && !line[0], physical[1] && !line[1]};
+    if (takes[0] && takes[1]) {
+      LinearizedPressureStep(2, models, schedules, volume, leak, pin, h, p1, done);
+    } else {
       for (int k = 0; k < 2; ++k) {
-        if (physical[k]) {
-          rate[k] = PressureRate(models[k], ports[k].At(0), p0[k], volume[k].At(0), volume[k].RateAt(0), leak,
-                                 p0[1 - k]);
-          if (config_.piston_leak_area > 0 && physical[1 - k]) {
-            // the orifice across the piston, as the chamber takes it: n r T Q(p_other -> p) / V
-            rate[k] += models[k].polytropic_index * models[k].gas_rt *
-                       MassFlow(models[k].leak_law, config_.piston_leak_area, p0[1 - k], p0[k]) / volume[k].At(0);
-          }
-        }
-      }
-    } else if (!done[0] || !done[1]) {
-      // the adaptive implicit step (step=exact, or where the linearized step asks for it), chamber by chamber;
-      // the leak across the piston, solved exactly, in two halves around it (Strang splitting)
-      // (taken here unless split_laminar took it around every chamber's step)
-      bool coupled = leak > 0 && physical[0] && physical[1] && !split_laminar;
-      double p[2] = {pin[0], pin[1]};
-      if (coupled) PistonLeakExchange(models, v_start_both, leak, h / 2, p);
-      for (int k = 0; k < 2; ++k) {
-        if (physical[k] && !done[k]) p1[k] = PhysicalPressureStep(models[k], ports[k], volume[k], p[k], h);
-      }
-      if (coupled) PistonLeakExchange(models, v_end_both, leak, h / 2, p1);
-    }
-    if (split_laminar) PistonLeakExchange(models, v_end_both, leak, h / 2, p1);
-    const double p1_chambers[2] = {p1[0], p1[1]};  // before the orifice's second half
-    if (orifice > 0) PistonOrificeExchange(models, v_end_both, orifice, h / 2, p1);
-    for (int k = 0; k < 2; ++k) {
-      if (physical[k] && config_.step != ChamberStep::kExplicit) rate[k] = (p1[k] - p0[k]) / h;
-    }
-    // the mass the supply ports draw over the step, for the reservoir (both chambers are physical:
-    // the parser refuses supply= with the identified model)
-    if (supply_drawn) {
-      double coupled_leak = leak > 0 && physical[0] && physical[1] ? leak : 0;
-      if (line[0] || line[1]) *supply_drawn += line_drawn;
-      for (int k = 0; k < 2; ++k) {
-        if (!physical[k] || line[k]) continue;
-        if (config_.step == ChamberStep::kExplicit) {
-          // plain explicit Euler: the flow at the start of the step, as the chamber takes it
-          double opening = ports[k].At(0).supply;
-          *supply_drawn += opening > 0 ? h * MassFlow(models[k].flow, opening, models[k].p_supply, p0[k]) : 0.0;
-        } else {
-          *supply_drawn += SupplyMassOverStep(models[k], ports[k].At(0), ports[k].At(h), volume[k], p_before_laminar[k],
-                                              p1_chambers[k], coupled_leak, p_before_laminar[1 - k], p1_chambers[1 - k], h);
-        }
+        if (!takes[k]) continue;
+        LinearizedPressureStep(1, &models[k], &schedules[k], &volume[k], 0, &pin[k], h, &p1[k], &done[k]);
       }
     }
   }
-  for (int k = 0; k < 2; ++k) ActDot(m, d, info_.chamber_actuator[k]) = rate[k];
+  if (config_.step == ChamberStep::kExplicit) {
+    ExplicitRates(models, ports, volume, p0, rate);
+  } else if (!done[0] || !done[1]) {
+    // the adaptive implicit step (step=exact, or where the linearized step asks for it), chamber by chamber;
+    // the leak across the piston, solved exactly, in two halves around it (Strang splitting)
+    // (taken here unless split_laminar took it around every chamber's step)
+    bool coupled = leak > 0 && physical[0] && physical[1] && !split_laminar;
+    double p[2] = {pin[0], pin[1]};
+    if (coupled) PistonLeakExchange(models, v_start_both, leak, h / 2, p);
+    for (int k = 0; k < 2; ++k) {
+      if (physical[k] && !done[k]) p1[k] = PhysicalPressureStep(models[k], ports[k], volume[k], p[k], h);
+    }
+    if (coupled) PistonLeakExchange(models, v_end_both, leak, h / 2, p1);
+  }
+  if (split_laminar) PistonLeakExchange(models, v_end_both, leak, h / 2, p1);
+  const double p1_chambers[2] = {p1[0], p1[1]};  // before the orifice's second half
+  if (orifice > 0) PistonOrificeExchange(models, v_end_both, orifice, h / 2, p1);
+  for (int k = 0; k < 2; ++k) {
+    if (physical[k] && config_.step != ChamberStep::kExplicit) rate[k] = (p1[k] - p0[k]) / h;
+  }
+  if (supply_drawn) AddSupplyDrawn(models, ports, volume, line, line_drawn, p0, p_before_laminar, p1_chambers, h, supply_drawn);
+}
+
+// a chamber behind a line (line_volume > 0; the parser refuses step=explicit with it): line and
+// chamber together by their own implicit step from pin, which writes the line's act_dot, p1 and done of
+// the chamber; returns the mass its supply port draws over the step (0 unless count_supply)
+double Cylinder::StepLines(const mjModel* m, mjData* d, const ChamberModel models[2], const PortSchedule ports[2],
+                           const VolumePath volume[2], const bool line[2], const double pin[2], bool count_supply,
+                           double p1[2], bool done[2]) const {
+  const double h = m->opt.timestep;
+  double line_drawn = 0;
+  for (int k = 0; k < 2; ++k) {
+    if (!line[k]) continue;
+    int id = extra_state_id_[kLineP + k];
+    double line0 = Act(m, d, id) + config_.p_atm, line1 = line0, drawn = 0;
+    LinePressureStep(models[k], ports[k], volume[k], line0, pin[k], h, &line1, &p1[k], count_supply ? &drawn : nullptr);
+    ActDot(m, d, id) = (line1 - line0) / h;
+    line_drawn += drawn;
+    done[k] = true;
+  }
+  return line_drawn;
+}
+
+// step=explicit: dp/dt of each physical chamber at the start of the step (MuJoCo's plain Euler)
+void Cylinder::ExplicitRates(const ChamberModel models[2], const PortSchedule ports[2], const VolumePath volume[2],
+                             const double p0[2], double rate[2]) const {
+  const double leak = config_.piston_leak_conductance;
+  bool physical[2];
+  for (int k = 0; k < 2; ++k) physical[k] = config_.chamber[k].model == PressureModel::kPhysical;
+  for (int k = 0; k < 2; ++k) {
+    if (physical[k]) {
+      rate[k] = PressureRate(models[k], ports[k].At(0), p0[k], volume[k].At(0), volume[k].RateAt(0), leak,
+                             p0[1 - k]);
+      if (config_.piston_leak_area > 0 && physical[1 - k]) {
+        // the orifice across the piston, as the chamber takes it: n r T Q(p_other -> p) / V
+        rate[k] += models[k].polytropic_index * models[k].gas_rt *
+                   MassFlow(models[k].leak_law, config_.piston_leak_area, p0[1 - k], p0[k]) / volume[k].At(0);
+      }
+    }
+  }
+}
+
+// the mass the supply ports draw over the step, for the reservoir, added to *supply_drawn: the lines'
+// (line_drawn), then each other chamber's from p_start to p_end, the pressures its own step began and
+// ended at (both chambers are physical: the parser refuses supply= with the identified model)
+void Cylinder::AddSupplyDrawn(const ChamberModel models[2], const PortSchedule ports[2], const VolumePath volume[2],
+                              const bool line[2], double line_drawn, const double p0[2], const double p_start[2],
+                              const double p_end[2], double h, double* supply_drawn) const {
+  const double leak = config_.piston_leak_conductance;
+  bool physical[2];
+  for (int k = 0; k < 2; ++k) physical[k] = config_.chamber[k].model == PressureModel::kPhysical;
+  double coupled_leak = leak > 0 && physical[0] && physical[1] ? leak : 0;
+  if (line[0] || line[1]) *supply_drawn += line_drawn;
+  for (int k = 0; k < 2; ++k) {
+    if (!physical[k] || line[k]) continue;
+    if (config_.step == ChamberStep::kExplicit) {
+      // plain explicit Euler: the flow at the start of the step, as the chamber takes it
+      double opening = ports[k].At(0).supply;
+      *supply_drawn += opening > 0 ? h * MassFlow(models[k].flow, opening, models[k].p_supply, p0[k]) : 0.0;
+    } else {
+      *supply_drawn += SupplyMassOverStep(models[k], ports[k].At(0), ports[k].At(h), volume[k], p_start[k],
+                                          p_end[k], coupled_leak, p_start[1 - k], p_end[1 - k], h);
+    }
+  }
 }
 
 void Cylinder::WriteGains(mjModel* m) const {

@@ -85,6 +85,17 @@ class Cylinder {
   double ChamberGain(const mjData* d, int chamber) const;
 
  private:
+  // FromModel's steps, in its order: each binds one group of the cylinder's actuators and returns "" or
+  // the error (cylinder.cc says what each checks)
+  std::string BindChambers(const mjModel* m, bool gains_written);
+  std::string BindTransmission(const mjModel* m);
+  std::string BindValves(const mjModel* m);
+  std::string BindFriction(const mjModel* m);
+  std::string BindExtraStates(const mjModel* m);
+  std::string RefuseOtherActuators(const mjModel* m) const;
+  // after the checks: the info, the chambers' models and the path each step takes
+  void PrepareSteps();
+
   ValveInputs ReadValves(const mjModel* m, const mjData* d, bool zero_commands) const;
   // the piston over one step, read once (with mount=hinge_sites, one evaluation of the sites' geometry)
   struct PistonMotion {
@@ -105,6 +116,22 @@ class Cylinder {
   int DelaySlot(int channel) const;
   // chamber's volume over the step from piston position x, moving at x_rate
   VolumePath Volume(int chamber, double x, double x_rate) const;
+  // Step's stages (cylinder.cc): the energy equation's step of both chambers (thermal_model=energy), which
+  // writes their act_dot; the physical chambers' rates otherwise, from the lines' step, the linearized,
+  // explicit or adaptive chamber steps and the leaks across the piston, and the supply's mass over the step
+  void StepEnergy(const mjModel* m, mjData* d, const ChamberModel models[2], const ValveInputs& valves,
+                  const PistonMotion& motion, double x_rate, const double p0[2], double* supply_drawn) const;
+  void PhysicalRates(const mjModel* m, mjData* d, const ChamberModel models[2], const ValveInputs& valves,
+                     const PistonMotion& motion, double x_rate, const double p0[2], double rate[2],
+                     double* supply_drawn) const;
+  double StepLines(const mjModel* m, mjData* d, const ChamberModel models[2], const PortSchedule ports[2],
+                   const VolumePath volume[2], const bool line[2], const double pin[2], bool count_supply,
+                   double p1[2], bool done[2]) const;
+  void ExplicitRates(const ChamberModel models[2], const PortSchedule ports[2], const VolumePath volume[2],
+                     const double p0[2], double rate[2]) const;
+  void AddSupplyDrawn(const ChamberModel models[2], const PortSchedule ports[2], const VolumePath volume[2],
+                      const bool line[2], double line_drawn, const double p0[2], const double p_start[2],
+                      const double p_end[2], double h, double* supply_drawn) const;
 
   CylinderConfig config_;
   CylinderInfo info_;
