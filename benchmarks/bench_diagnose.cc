@@ -53,7 +53,7 @@
 #include <string>
 #include <vector>
 
-#include "closed_loop.h"
+#include "simulation/closed_loop.h"
 #include "diagnosis/candidates.h"
 #include "diagnosis/diagnose.h"
 #include "key_value_text.h"

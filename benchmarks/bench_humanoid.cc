@@ -27,7 +27,7 @@
 // the end-of-step velocity the chamber volumes follow needs once per step.
 //
 // Rollouts: `pneumo rollout --controller pid --controller-config models_mjcf/humanoid_pid.json` on
-// the humanoid (pneumo/closed_loop.h; the shipped gains, as scripts/demo runs it: every tick also
+// the humanoid (pneumo/simulation/closed_loop.h; the shipped gains, as scripts/demo runs it: every tick also
 // computes each cylinder's mobility for them), 2 s each, 4 runs with 1 thread, then 4 runs over 2
 // threads (each on its own copy of the model).
 #include <algorithm>
@@ -44,11 +44,11 @@
 
 #include <mujoco/mujoco.h>
 
-#include "closed_loop.h"
-#include "controller_config.h"
-#include "log_csv.h"
+#include "simulation/closed_loop.h"
+#include "simulation/controller_config.h"
+#include "formats/log_csv.h"
 #include "machine.h"
-#include "model_loading.h"
+#include "formats/model_loading.h"
 #include "pneumatic/pneumatic.h"
 
 namespace {

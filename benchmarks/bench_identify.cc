@@ -19,7 +19,7 @@
 
 #include <mujoco/mujoco.h>
 
-#include "generate.h"
+#include "simulation/generate.h"
 #include "identification/chamber_series.h"
 #include "identification/parametric_fit.h"
 #include "machine.h"

@@ -20,7 +20,7 @@
 
 #include "machine.h"
 #include "pneumatic/pneumatic.h"
-#include "render.h"
+#include "rendering/render.h"
 
 namespace {
 

@@ -46,11 +46,11 @@
 #include <mujoco/mujoco.h>
 
 #include "machine.h"
-#include "model_loading.h"
+#include "formats/model_loading.h"
 #include "pneumatic/pneumatic.h"
 #include "reference_log.h"
 #include "rig_reference.h"
-#include "rollout.h"
+#include "simulation/rollout.h"
 
 namespace {
 

@@ -43,7 +43,7 @@
 #include <mujoco/mujoco.h>
 
 #include "machine.h"
-#include "model_loading.h"
+#include "formats/model_loading.h"
 #include "pneumatic/pneumatic.h"
 
 namespace {

@@ -15,7 +15,7 @@
 
 #include <mujoco/mujoco.h>
 
-#include "log_csv.h"
+#include "formats/log_csv.h"
 #include "pneumatic/pneumatic.h"
 
 namespace {

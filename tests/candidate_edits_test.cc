@@ -13,7 +13,7 @@
 #include <mujoco/mujoco.h>
 
 #include "diagnosis/candidates.h"
-#include "model_loading.h"
+#include "formats/model_loading.h"
 #include "pneumatic/pneumatic.h"
 
 namespace pneumatic::diagnosis {

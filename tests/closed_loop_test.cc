@@ -1,4 +1,4 @@
-// Closed-loop rollouts (pneumo/closed_loop.h, `pneumo rollout --controller`): a PID on position
+// Closed-loop rollouts (pneumo/simulation/closed_loop.h, `pneumo rollout --controller`): a PID on position
 // drives each rig's valves, the log and summary say what happened, and runs are reproducible.
 #include <sys/wait.h>
 #include <unistd.h>
@@ -15,9 +15,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "closed_loop.h"
-#include "controller_config.h"
-#include "log_csv.h"
+#include "simulation/closed_loop.h"
+#include "simulation/controller_config.h"
+#include "formats/log_csv.h"
 #include "position_pid.h"
 #include "position_stiffness.h"
 #include "sliding_mode.h"

@@ -11,8 +11,8 @@
 
 #include <gtest/gtest.h>
 
-#include "closed_loop.h"
-#include "generate.h"
+#include "simulation/closed_loop.h"
+#include "simulation/generate.h"
 #include "diagnosis/candidates.h"
 #include "diagnosis/diagnose.h"
 #include "diagnosis/effect_fit.h"

@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "closed_loop.h"
+#include "simulation/closed_loop.h"
 #include "diagnosis/calibration.h"
 #include "diagnosis/candidates.h"
 #include "diagnosis/diagnose.h"

@@ -14,7 +14,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "log_csv.h"
+#include "formats/log_csv.h"
 #include "test_util.h"
 
 namespace pneumatic {

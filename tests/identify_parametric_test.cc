@@ -13,12 +13,12 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "generate.h"
+#include "simulation/generate.h"
 #include "identification/chamber_series.h"
 #include "identification/drift.h"
 #include "identification/output_error_fit.h"
 #include "identification/parametric_fit.h"
-#include "log_csv.h"
+#include "formats/log_csv.h"
 #include "pneumatic/pneumatic.h"
 #include "test_util.h"
 

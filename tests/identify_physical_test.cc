@@ -11,7 +11,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "generate.h"
+#include "simulation/generate.h"
 #include "identification/physical_fit.h"
 #include "test_util.h"
 
@@ -83,7 +83,7 @@ class PhysicalFitTest : public testing::MujocoTest {
 };
 
 // Generate's noise model added to a noise-free log with a seed of its own: Gaussian noise of
-// 500 Pa on p_P, p_N, 0.1 mm on x, and sqrt(2) 0.1 mm / 10 ms on v (pneumo/generate.h)
+// 500 Pa on p_P, p_N, 0.1 mm on x, and sqrt(2) 0.1 mm / 10 ms on v (pneumo/simulation/generate.h)
 log::Log WithNoise(log::Log log, std::uint64_t seed) {
   std::mt19937_64 random(seed);
   std::normal_distribution<double> normal;

@@ -12,9 +12,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "closed_loop.h"
+#include "simulation/closed_loop.h"
 #include "karpenko_pid.h"
-#include "reproduce_karpenko2006.h"
+#include "reproductions/reproduce_karpenko2006.h"
 #include "test_util.h"
 
 namespace pneumatic {

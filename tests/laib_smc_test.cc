@@ -13,7 +13,7 @@
 
 #include "laib_smc.h"
 #include "pneumatic/pneumatic.h"
-#include "reproduce_laib2021.h"
+#include "reproductions/reproduce_laib2021.h"
 
 namespace pneumatic {
 namespace {

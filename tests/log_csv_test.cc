@@ -1,7 +1,7 @@
 // Tests of the log reader and writer against docs/log_format.md.
 
-#include "log_csv.h"
-#include "output_file.h"
+#include "formats/log_csv.h"
+#include "formats/output_file.h"
 
 #include <fcntl.h>
 #include <signal.h>

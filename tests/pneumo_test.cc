@@ -1,5 +1,5 @@
-// Tests of the open-loop rollout (pneumo/rollout.h) and of the command-line tool
-// `pneumo` (pneumo/main.cc): the rollout library in-process, the binary through the
+// Tests of the open-loop rollout (pneumo/simulation/rollout.h) and of the command-line tool
+// `pneumo` (pneumo/cli/): the rollout library in-process, the binary through the
 // shell, reading and writing logs of docs/log_format.md.
 
 #include <sys/wait.h>
@@ -18,10 +18,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "closed_loop.h"
-#include "controller_config.h"
-#include "log_csv.h"
-#include "rollout.h"
+#include "simulation/closed_loop.h"
+#include "simulation/controller_config.h"
+#include "formats/log_csv.h"
+#include "simulation/rollout.h"
 #include "test_util.h"
 
 namespace pneumatic {

@@ -1,4 +1,4 @@
-// Golden-image tests of the off-screen renderer (pneumo/render.h, pneumo/render_command.h).
+// Golden-image tests of the off-screen renderer (pneumo/rendering/render.h, pneumo/rendering/frames.h).
 //
 // Fixed states of the three rigs and of the humanoid (models_mjcf/humanoid_pneumatic.xml, when it
 // exists) are rendered at 320 x 240 and compared with tests/golden/<name>.png by CompareImages:
@@ -28,10 +28,10 @@
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
 
-#include "log_csv.h"
+#include "formats/log_csv.h"
 #include "pneumatic/pneumatic.h"
-#include "render.h"
-#include "render_command.h"
+#include "rendering/render.h"
+#include "rendering/frames.h"
 
 namespace pneumatic {
 namespace {

@@ -10,7 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "reference_log.h"
-#include "rollout.h"
+#include "simulation/rollout.h"
 #include "test_util.h"
 
 namespace pneumatic {

@@ -12,7 +12,7 @@
 #include <tinyxml2.h>
 
 #include "diagnosis/effects/registry.h"
-#include "model_loading.h"
+#include "formats/model_loading.h"
 #include "pneumatic/pneumatic.h"
 
 namespace pneumatic::diagnosis {

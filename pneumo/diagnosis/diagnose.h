@@ -52,7 +52,7 @@
 #include "diagnosis/prediction.h"
 #include "diagnosis/residual_tests.h"
 #include "diagnosis/unexplained.h"
-#include "log_csv.h"
+#include "formats/log_csv.h"
 
 namespace pneumatic::diagnosis {
 

@@ -6,7 +6,7 @@
 
 #include <Eigen/Dense>
 
-#include "rollout.h"
+#include "simulation/rollout.h"
 
 namespace pneumatic::diagnosis {
 

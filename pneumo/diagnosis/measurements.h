@@ -12,7 +12,7 @@
 
 #include <mujoco/mujoco.h>
 
-#include "log_csv.h"
+#include "formats/log_csv.h"
 #include "pneumatic/pneumatic.h"
 
 namespace pneumatic::diagnosis {

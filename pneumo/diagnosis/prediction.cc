@@ -11,8 +11,8 @@
 
 #include <Eigen/Dense>
 
-#include "prescribed_motion.h"
-#include "step_state.h"
+#include "simulation/prescribed_motion.h"
+#include "simulation/step_state.h"
 
 namespace pneumatic::diagnosis {
 namespace {

@@ -16,7 +16,7 @@
 
 #include <mujoco/mujoco.h>
 
-#include "log_csv.h"
+#include "formats/log_csv.h"
 
 namespace pneumatic::identification {
 

@@ -6,7 +6,7 @@
 
 #include <ceres/ceres.h>
 
-#include "parallel_for.h"
+#include "simulation/parallel_for.h"
 
 namespace pneumatic::identification {
 namespace {

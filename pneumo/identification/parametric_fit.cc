@@ -13,7 +13,7 @@
 #include <Eigen/Dense>
 
 #include "identification/drift.h"
-#include "parallel_for.h"
+#include "simulation/parallel_for.h"
 #include "identification/uncertainty.h"
 
 namespace pneumatic::identification {

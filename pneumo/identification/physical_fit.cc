@@ -13,9 +13,9 @@
 
 #include <ceres/ceres.h>
 
-#include "parallel_for.h"
+#include "simulation/parallel_for.h"
 #include "pneumatic/pneumatic.h"
-#include "rollout.h"
+#include "simulation/rollout.h"
 
 namespace pneumatic::identification {
 namespace {

@@ -39,7 +39,7 @@
 #include <mujoco/mujoco.h>
 
 #include "identification/uncertainty.h"
-#include "log_csv.h"
+#include "formats/log_csv.h"
 
 namespace pneumatic::identification {
 

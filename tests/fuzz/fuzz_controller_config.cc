@@ -10,7 +10,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "controller_config.h"
+#include "simulation/controller_config.h"
 #include "karpenko_pid.h"
 #include "laib_smc.h"
 #include "position_stiffness.h"

@@ -7,7 +7,7 @@
 #include <sstream>
 #include <string>
 
-#include "log_csv.h"
+#include "formats/log_csv.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string bytes(reinterpret_cast<const char*>(data), size);

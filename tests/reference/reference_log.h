@@ -10,7 +10,7 @@
 #include <utility>
 #include <vector>
 
-#include "log_csv.h"
+#include "formats/log_csv.h"
 #include "rig_reference.h"
 
 namespace pneumatic::reference {

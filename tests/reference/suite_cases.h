@@ -19,7 +19,7 @@
 #include <string>
 #include <vector>
 
-#include "log_csv.h"
+#include "formats/log_csv.h"
 #include "real_rig.h"
 
 namespace pneumatic::reference {
