@@ -53,7 +53,6 @@
 #include <string>
 #include <vector>
 
-#include "simulation/closed_loop.h"
 #include "diagnosis/candidates.h"
 #include "diagnosis/diagnose.h"
 #include "key_value_text.h"
@@ -61,6 +60,7 @@
 #include "pneumatic/pneumatic.h"
 #include "reference_log.h"
 #include "rig_reference.h"
+#include "simulation/closed_loop.h"
 
 namespace {
 

@@ -44,12 +44,12 @@
 
 #include <mujoco/mujoco.h>
 
+#include "formats/log_csv.h"
+#include "formats/model_loading.h"
+#include "machine.h"
+#include "pneumatic/pneumatic.h"
 #include "simulation/closed_loop.h"
 #include "simulation/controller_config.h"
-#include "formats/log_csv.h"
-#include "machine.h"
-#include "formats/model_loading.h"
-#include "pneumatic/pneumatic.h"
 
 namespace {
 

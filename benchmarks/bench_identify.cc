@@ -19,11 +19,11 @@
 
 #include <mujoco/mujoco.h>
 
-#include "simulation/generate.h"
 #include "identification/chamber_series.h"
 #include "identification/parametric_fit.h"
 #include "machine.h"
 #include "pneumatic/pneumatic.h"
+#include "simulation/generate.h"
 
 namespace {
 

@@ -45,8 +45,8 @@
 
 #include <mujoco/mujoco.h>
 
-#include "machine.h"
 #include "formats/model_loading.h"
+#include "machine.h"
 #include "pneumatic/pneumatic.h"
 #include "reference_log.h"
 #include "rig_reference.h"

@@ -42,8 +42,8 @@
 
 #include <mujoco/mujoco.h>
 
-#include "machine.h"
 #include "formats/model_loading.h"
+#include "machine.h"
 #include "pneumatic/pneumatic.h"
 
 namespace {

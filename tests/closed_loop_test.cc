@@ -15,11 +15,11 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "simulation/closed_loop.h"
-#include "simulation/controller_config.h"
 #include "formats/log_csv.h"
 #include "position_pid.h"
 #include "position_stiffness.h"
+#include "simulation/closed_loop.h"
+#include "simulation/controller_config.h"
 #include "sliding_mode.h"
 #include "test_util.h"
 

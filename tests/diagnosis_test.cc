@@ -11,14 +11,14 @@
 
 #include <gtest/gtest.h>
 
-#include "simulation/closed_loop.h"
-#include "simulation/generate.h"
 #include "diagnosis/candidates.h"
 #include "diagnosis/diagnose.h"
 #include "diagnosis/effect_fit.h"
 #include "diagnosis/measurements.h"
 #include "diagnosis/residual_tests.h"
 #include "reference_log.h"
+#include "simulation/closed_loop.h"
+#include "simulation/generate.h"
 
 namespace pneumatic::diagnosis {
 namespace {

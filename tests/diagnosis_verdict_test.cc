@@ -9,7 +9,6 @@
 
 #include <gtest/gtest.h>
 
-#include "simulation/closed_loop.h"
 #include "diagnosis/calibration.h"
 #include "diagnosis/candidates.h"
 #include "diagnosis/diagnose.h"
@@ -17,6 +16,7 @@
 #include "diagnosis/plausibility.h"
 #include "diagnosis/residual_tests.h"
 #include "diagnosis/unexplained.h"
+#include "simulation/closed_loop.h"
 
 namespace pneumatic::diagnosis {
 namespace {

@@ -13,13 +13,13 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "simulation/generate.h"
+#include "formats/log_csv.h"
 #include "identification/chamber_series.h"
 #include "identification/drift.h"
 #include "identification/output_error_fit.h"
 #include "identification/parametric_fit.h"
-#include "formats/log_csv.h"
 #include "pneumatic/pneumatic.h"
+#include "simulation/generate.h"
 #include "test_util.h"
 
 namespace pneumatic::identification {

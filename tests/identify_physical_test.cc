@@ -11,8 +11,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "simulation/generate.h"
 #include "identification/physical_fit.h"
+#include "simulation/generate.h"
 #include "test_util.h"
 
 namespace pneumatic::identification {

@@ -12,9 +12,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "simulation/closed_loop.h"
 #include "karpenko_pid.h"
 #include "reproductions/reproduce_karpenko2006.h"
+#include "simulation/closed_loop.h"
 #include "test_util.h"
 
 namespace pneumatic {

@@ -30,8 +30,8 @@
 
 #include "formats/log_csv.h"
 #include "pneumatic/pneumatic.h"
-#include "rendering/render.h"
 #include "rendering/frames.h"
+#include "rendering/render.h"
 
 namespace pneumatic {
 namespace {

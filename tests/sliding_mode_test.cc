@@ -9,8 +9,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "simulation/closed_loop.h"
 #include "reproductions/reproduce_hodgson2012.h"
+#include "simulation/closed_loop.h"
 #include "sliding_mode.h"
 #include "test_util.h"
 

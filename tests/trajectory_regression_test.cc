@@ -22,9 +22,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "formats/log_csv.h"
 #include "simulation/closed_loop.h"
 #include "simulation/controller_config.h"
-#include "formats/log_csv.h"
 #include "test_util.h"
 
 namespace pneumatic {

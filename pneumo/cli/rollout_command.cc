@@ -2,28 +2,31 @@
 
 #include <unistd.h>
 
+#include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <sstream>
 
 #include <mujoco/mujoco.h>
 #include <nlohmann/json.hpp>
 
-#include "simulation/closed_loop.h"
-#include "simulation/controller_config.h"
-#include "karpenko_pid.h"
-#include "laib_smc.h"
-#include "position_stiffness.h"
-#include "sliding_mode.h"
 #include "formats/log_csv.h"
 #include "formats/model_loading.h"
 #include "formats/output_file.h"
-#include "simulation/parallel_for.h"
 #include "pneumatic/pneumatic.h"
 #include "rendering/frames.h"
+#include "simulation/closed_loop.h"
+#include "simulation/controller_config.h"
+#include "simulation/paper_controllers.h"
+#include "simulation/parallel_for.h"
+#include "simulation/rollout.h"
+#include "simulation/rollout_summary.h"
 
 namespace pneumatic {
 namespace {
@@ -33,63 +36,6 @@ using nlohmann::json;
 int Fail(const std::string& message) {
   std::fprintf(stderr, "pneumo rollout: %s\n", message.c_str());
   return 1;
-}
-
-// The papers' controllers take "key=value ..." configurations (their key tables name units and
-// ranges); their JSON configuration gives them as a flat object of numbers.
-std::string JsonToKeyValues(const json& config, const std::string& where, std::string* text) {
-  if (!config.is_object()) return where + ": expected a JSON object of key: number";
-  for (const auto& [key, value] : config.items()) {
-    if (!value.is_number()) return where + ": key '" + key + "' must be a number";
-    char number[64];
-    std::snprintf(number, sizeof(number), "%.17g", value.get<double>());
-    *text += key + "=" + number + " ";
-  }
-  return "";
-}
-
-// the factory of one of the papers' controllers, its configuration (`config` from `where`, if any)
-// read now (errors name the key)
-std::string PaperController(const std::string& name, const json* config, const std::string& where,
-                            ClosedLoopOptions* out) {
-  std::string text;
-  if (config) {
-    if (std::string e = JsonToKeyValues(*config, where, &text); !e.empty()) return e;
-  }
-  std::string error;
-  out->controller = "custom";
-  if (name == "sliding3" || name == "sliding7") {
-    SlidingModeParams params;
-    params.modes = name == "sliding3" ? 3 : 7;
-    if (!text.empty() && !ParseSlidingModeConfig(text, &params, &error)) return where + ": " + error;
-    out->make_controller = [params](const std::vector<ValveDrive>& drives, double period, std::string* e) {
-      std::vector<ValveDrive> copy = drives;
-      SlidingModeParams p = params;
-      if (!drives.empty()) p.p_supply = drives[0].p_supply, p.p_exhaust = drives[0].p_exhaust;
-      return std::unique_ptr<Controller>(SlidingModeController::Create(copy, p, period, e));
-    };
-  } else if (name == "karpenko") {
-    KarpenkoPidParams params;
-    if (!text.empty() && !ParseKarpenkoPidConfig(text, &params, &error)) return where + ": " + error;
-    out->make_controller = [params](const std::vector<ValveDrive>& drives, double period, std::string* e) {
-      return std::unique_ptr<Controller>(KarpenkoPid::Create(drives, params, period, e));
-    };
-  } else if (name == "laib") {
-    LaibSmcParams params;
-    if (!text.empty() && !ParseLaibSmcConfig(text, &params, &error)) return where + ": " + error;
-    out->make_controller = [params](const std::vector<ValveDrive>& drives, double period, std::string* e) {
-      return std::unique_ptr<Controller>(LaibSmcController::Create(drives, params, period, e));
-    };
-  } else if (name == "position_stiffness") {
-    PositionStiffnessParams params;
-    if (std::string e = ParsePositionStiffnessConfig(text, &params); !e.empty()) return where + ": " + e;
-    out->make_controller = [params](const std::vector<ValveDrive>& drives, double period, std::string* e) {
-      return std::unique_ptr<Controller>(PositionStiffness::Create(drives, params, period, e));
-    };
-  } else {
-    return "unknown controller '" + name + "'";
-  }
-  return "";
 }
 
 struct Variation {
@@ -121,26 +67,6 @@ std::string ReadVariations(const std::string& path, std::vector<Variation>* out)
     out->push_back(v);
   }
   return "";
-}
-
-// `controller`: its name and where its configuration came from (a file, the model, its defaults)
-json SummaryJson(const ClosedLoopSummary& s, const std::string& run, const json& controller) {
-  json cylinders = json::object();
-  for (const CylinderSummary& c : s.cylinders) {
-    cylinders[c.name] = {{"rms_tracking_error", c.rms_tracking_error},
-                         {"max_tracking_error", c.max_tracking_error},
-                         {"p_P_range_pa", {c.p_min[0], c.p_max[0]}},
-                         {"p_N_range_pa", {c.p_min[1], c.p_max[1]}},
-                         {"within_supply_range", c.within_supply_range}};
-  }
-  return {{"run", run},
-          {"controller", controller},
-          {"steps", s.steps},
-          {"simulated_s", s.simulated_s},
-          {"wall_s", s.wall_s},
-          {"real_time_factor", s.real_time_factor},
-          {"cylinders", cylinders},
-          {"warnings", s.warnings}};
 }
 
 std::string Substitute(std::string pattern, const std::string& run) {
@@ -351,3 +277,147 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
 }
 
 }  // namespace pneumatic
+
+namespace pneumatic::cli {
+namespace {
+
+int RunRollout(const std::string& model_path, const std::string& commands_path, const std::string& out_path,
+               bool duration_given, double duration, double period, const std::vector<std::string>& sets,
+               bool follow_motion) {
+  if (std::string e = pneumatic::CheckOutputPath(out_path, "a log file"); !e.empty()) return Fail(e);
+  AttachedModel model;
+  if (std::string e = Load(model_path, &model); !e.empty()) return Fail(e);
+  const mjModel* m = model.model;
+
+  pneumatic::RolloutOptions options;
+  if (duration_given) options.duration = duration;
+  options.period = period;
+  options.follow_motion = follow_motion;
+  for (const std::string& s : sets) {
+    size_t eq = s.find('=');
+    char* end = nullptr;
+    double value = eq == std::string::npos ? 0 : std::strtod(s.c_str() + eq + 1, &end);
+    if (eq == std::string::npos || end == s.c_str() + eq + 1 || *end != '\0' || !std::isfinite(value)) {
+      return Fail("--set '" + s + "': expected <cylinder>.<signal>=<number>, e.g. cyl.u=2.5");
+    }
+    options.constant_commands[s.substr(0, eq)] = value;
+  }
+
+  std::optional<pneumatic::log::Log> commands;
+  if (!commands_path.empty()) {
+    pneumatic::log::ReadOptions read;
+    for (const auto& c : pneumatic::Cylinders(m)) read.cylinders.insert(c.name);
+    pneumatic::log::ReadResult r = pneumatic::log::ReadLog(commands_path, read);
+    if (!r.log) return Fail(r.error);
+    commands = std::move(r.log);
+  }
+
+  auto start = std::chrono::steady_clock::now();
+  pneumatic::RolloutResult result = pneumatic::Rollout(m, commands ? &*commands : nullptr, options);
+  if (!result.log) return Fail(result.error);
+  double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  result.log->comments.insert(result.log->comments.begin(), "model: " + model_path);
+  if (!commands_path.empty()) result.log->comments.insert(result.log->comments.begin() + 1, "commands: " + commands_path);
+  if (std::string e = pneumatic::log::WriteLog(out_path, *result.log); !e.empty()) return Fail(e);
+  const auto& t = result.log->time;
+  std::fprintf(stderr, "pneumo: wrote %s: %zu rows, %.3f s simulated in %.3f s\n", out_path.c_str(), t.size(),
+               t.empty() ? 0.0 : t.back() - t.front() + result.log->Period(), wall);
+  return 0;
+}
+
+// the options of `pneumo rollout`, open and closed loop
+struct RolloutArguments {
+  std::string model_path, commands_path, out_path;
+  double duration = 0, period = 0;
+  std::vector<std::string> sets;
+  bool follow_motion = false;
+  pneumatic::ClosedLoopCommandOptions closed;
+};
+
+// runs `pneumo rollout` once the command line is parsed: closed loop with --controller, else open loop
+int RunRolloutCommand(const CLI::App* rollout, RolloutArguments& arguments) {
+  const std::string &model_path = arguments.model_path, &commands_path = arguments.commands_path,
+                    &out_path = arguments.out_path;
+  const double duration = arguments.duration, period = arguments.period;
+  const std::vector<std::string>& sets = arguments.sets;
+  const bool follow_motion = arguments.follow_motion;
+  pneumatic::ClosedLoopCommandOptions& closed = arguments.closed;
+  if (rollout->count("--controller") > 0) {
+    if (!commands_path.empty() || !sets.empty() || follow_motion) {
+      return Fail("--controller runs closed loop: it does not take --commands, --set or --follow-motion");
+    }
+    // without --duration, the reference's span (RunClosedLoopCommand, which refuses a run with neither)
+    if (rollout->count("--duration") > 0 && !(duration > 0)) return Fail("--duration must be positive");
+    closed.model_path = model_path;
+    closed.duration = rollout->count("--duration") > 0 ? duration : 0;
+    closed.out_path = out_path;
+    if (closed.seeds.empty()) closed.seeds = {1};
+    return pneumatic::RunClosedLoopCommand(closed);
+  }
+  for (const char* closed_only : {"--controller-config", "--reference", "--control-rate", "--seed", "--noise-pressure",
+                                  "--noise-position", "--variations", "--summary", "--jobs", "--frames", "--fps",
+                                  "--width", "--height", "--camera"}) {
+    if (rollout->count(closed_only) > 0) return Fail(std::string(closed_only) + " needs --controller");
+  }
+  bool duration_given = rollout->count("--duration") > 0;
+  return RunRollout(model_path, commands_path, out_path, duration_given, duration, period, sets, follow_motion);
+}
+
+}  // namespace
+
+Command AddRolloutCommand(CLI::App& app) {
+  auto arguments = std::make_shared<RolloutArguments>();
+  std::string &model_path = arguments->model_path, &commands_path = arguments->commands_path,
+              &out_path = arguments->out_path;
+  double &duration = arguments->duration, &period = arguments->period;
+  std::vector<std::string>& sets = arguments->sets;
+  CLI::App* rollout = app.add_subcommand("rollout", "replay a log's commands open loop from its first measured state");
+  rollout->add_option("model", model_path, "MJCF model with pneumatic cylinders")->required();
+  rollout->add_option("--commands", commands_path, "log (docs/log_format.md) whose command columns are replayed");
+  rollout->add_option("--out", out_path, "simulated log to write")->required();
+  rollout->add_option("--duration", duration,
+                      "seconds to simulate (default: the whole --commands log; with --controller, the --reference's span)");
+  rollout->add_option("--period", period, "row period without a command log, s (default 1 ms)");
+  rollout->add_option("--set", sets, "constant command, e.g. --set cyl.u=2.5 (repeatable)");
+  bool& follow_motion = arguments->follow_motion;
+  rollout->add_flag("--follow-motion", follow_motion,
+                    "reset pistons to the log's x and v at every row: simulate pressures only (paper 000 V.D)");
+  pneumatic::ClosedLoopCommandOptions& closed = arguments->closed;
+  rollout->add_option("--controller", closed.controller,
+                      "closed loop: pid (a PID on every cylinder's position, any valve), none (valves at rest), "
+                      "position_stiffness (per-chamber valves: position and co-contraction, paper 000's set-up), "
+                      "sliding3 or sliding7 (paper 002, on/off valves), karpenko (paper 001's PI, a 5/3 valve), "
+                      "laib (paper 003's sliding-mode controller with observers, on/off valves on PWM)")
+      ->check(CLI::IsMember({"pid", "none", "position_stiffness", "sliding3", "sliding7", "karpenko", "laib"}));
+  rollout->add_option("--controller-config", closed.controller_config_path,
+                      "JSON of the controller's keys. pid: kp, ki, kd (on the error over the half stroke), "
+                      "co_contraction and swing (V), onoff_band, bandwidth (rad/s: gains raised per cylinder to its load), "
+                      "pressure_margin (Pa: per-chamber valves follow pressure targets inside "
+                      "[p_exhaust + margin, p_supply - margin]), pressure_step (the fraction of a pressure error each "
+                      "control period aims to close, default 0.25), "
+                      "\"cylinders\": {NAME: {...}}; the others: a flat "
+                      "object of numbers, keys and units in their headers (controllers/*.h); an unknown or "
+                      "out-of-range key is refused, named. Default: the configuration the model carries, "
+                      "<text name=\"pneumo:controller:NAME\" data='{...}'> in its <custom>, if it has one");
+  rollout->add_option("--reference", closed.reference_path, "log with <cylinder>.ref columns: the targets (default: hold the initial pose)");
+  rollout->add_option("--control-rate", closed.control_rate, "controller ticks per second (commands held between)")
+      ->capture_default_str();
+  rollout->add_option("--seed", closed.seeds, "seed of the sensor noise; several: one run each (repeatable)");
+  rollout->add_option("--noise-pressure", closed.noise_pressure, "pressure sensor noise seen and logged, Pa (std)");
+  rollout->add_option("--noise-position", closed.noise_position, "position sensor noise seen and logged, m or rad (std)");
+  rollout->add_option("--variations", closed.variations_path,
+                      "JSON [{\"name\": ..., \"set\": {\"cyl:key\": value}}]: one run per variation and seed");
+  rollout->add_option("--summary", closed.summary_path,
+                      "JSON summary: the controller and where its configuration came from, steps, real-time factor, "
+                      "tracking errors, pressure ranges, warnings");
+  rollout->add_option("--jobs", closed.jobs, "runs at once, each on its own copy of the model")->check(CLI::Range(1, 256));
+  rollout->add_option("--frames", closed.frames_dir,
+                      "closed loop: write rendered frames DIR/frame_00000.png... (and DIR/video.mp4 with ffmpeg)");
+  rollout->add_option("--fps", closed.fps, "frames per second of simulated time")->capture_default_str();
+  rollout->add_option("--width", closed.width, "frame width, pixels")->capture_default_str()->check(CLI::Range(1, 8192));
+  rollout->add_option("--height", closed.height, "frame height, pixels")->capture_default_str()->check(CLI::Range(1, 8192));
+  rollout->add_option("--camera", closed.camera, "a camera of the model (default: a free camera on the whole model)");
+  return {rollout, [rollout, arguments] { return RunRolloutCommand(rollout, *arguments); }};
+}
+
+}  // namespace pneumatic::cli

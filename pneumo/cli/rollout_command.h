@@ -1,11 +1,16 @@
-// pneumo rollout with a controller: closed-loop runs (closed_loop.h), several at once on copies of
-// the model (--jobs), with a JSON summary per run and a progress display.
-#ifndef PNEUMATIC_ROLLOUT_COMMAND_H_
-#define PNEUMATIC_ROLLOUT_COMMAND_H_
+// `pneumo rollout`: open loop, a log's commands replayed or constant commands (simulation/rollout.h);
+// with a controller, closed-loop runs (simulation/closed_loop.h), several at once on copies of the
+// model (--jobs), with a JSON summary per run and a progress display.
+#ifndef PNEUMATIC_CLI_ROLLOUT_COMMAND_H_
+#define PNEUMATIC_CLI_ROLLOUT_COMMAND_H_
 
 #include <cstdint>
 #include <string>
 #include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "cli/command_support.h"
 
 namespace pneumatic {
 
@@ -33,4 +38,12 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options);
 
 }  // namespace pneumatic
 
-#endif  // PNEUMATIC_ROLLOUT_COMMAND_H_
+namespace pneumatic::cli {
+
+// Adds `pneumo rollout` to app: open loop (a log's commands replayed, constant commands), or closed
+// loop with --controller (RunClosedLoopCommand).
+Command AddRolloutCommand(CLI::App& app);
+
+}  // namespace pneumatic::cli
+
+#endif  // PNEUMATIC_CLI_ROLLOUT_COMMAND_H_

@@ -165,7 +165,7 @@ std::string AfterModel(const dg::Diagnosis& d) {
 
 // the verdict first: in words, the held-out gaps against the noise floor, what is left, and the
 // alternatives the diagnosis does not pick between
-void VerdictBox(const dg::Diagnosis& d, const DiagnoseCommandOptions& o, std::ostringstream& h) {
+void VerdictBox(const dg::Diagnosis& d, const DiagnoseLogOptions& o, std::ostringstream& h) {
   const dg::Unexplained& u = d.unexplained;
   const double floor = d.noise_floor.floor;
   std::string effects;
@@ -229,7 +229,7 @@ void VerdictBox(const dg::Diagnosis& d, const DiagnoseCommandOptions& o, std::os
 
 // what the verdict's model leaves: which side fails, per signal its size and the states it
 // depends on, the regimes, and the plots of residual.png and residual_regimes.png
-void UnexplainedSection(const dg::Diagnosis& d, const DiagnoseCommandOptions& o, std::ostringstream& h) {
+void UnexplainedSection(const dg::Diagnosis& d, const DiagnoseLogOptions& o, std::ostringstream& h) {
   const dg::Unexplained& u = d.unexplained;
   const double multiple = o.diagnose.floor_multiple;
   h << "<h2 id=\"unexplained\">What is left unexplained</h2>\n<p>The residual (simulated &minus; measured) of the verdict's model on the held-out "
@@ -342,7 +342,7 @@ void NoiseFloorSection(const dg::Diagnosis& d, std::ostringstream& h) {
   h << "</table>\n";
 }
 
-std::string Html(const dg::Diagnosis& d, const DiagnoseCommandOptions& o) {
+std::string Html(const dg::Diagnosis& d, const DiagnoseLogOptions& o) {
   std::ostringstream h;
   // what is left comes first where it is the answer
   const bool left_first = d.verdict == "unexplained" || d.unexplained.present;
@@ -436,14 +436,15 @@ std::string Html(const dg::Diagnosis& d, const DiagnoseCommandOptions& o) {
   return h.str();
 }
 
-// "" if the report may go into `dir` (a folder, or nothing there yet), else why not
+}  // namespace
+
 std::string ReportDirProblem(const std::string& dir) {
   std::error_code ec;
   if (std::filesystem::exists(dir, ec) && !std::filesystem::is_directory(dir, ec)) return dir + ": exists and is not a directory";
   return "";
 }
 
-std::string WriteReport(const dg::Diagnosis& d, const nlohmann::json& j, const DiagnoseCommandOptions& o) {
+std::string WriteReport(const dg::Diagnosis& d, const nlohmann::json& j, const DiagnoseLogOptions& o) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (std::string e = ReportDirProblem(o.report_dir); !e.empty()) return e;
@@ -454,8 +455,6 @@ std::string WriteReport(const dg::Diagnosis& d, const nlohmann::json& j, const D
   if (std::string e = RunPlotScript("plot_diagnosis.py", {o.report_dir}); !e.empty()) return o.report_dir + ": " + e;
   return WriteOutput(o.report_dir + "/index.html", Html(d, o), "an HTML file");
 }
-
-}  // namespace
 
 nlohmann::json DiagnosisJson(const dg::Diagnosis& d) {
   nlohmann::json j;
@@ -524,47 +523,42 @@ nlohmann::json DiagnosisJson(const dg::Diagnosis& d) {
   return j;
 }
 
-int RunDiagnose(const DiagnoseCommandOptions& options) {
-  auto fail = [](const std::string& message) {
-    std::fprintf(stderr, "pneumo diagnose: %s\n", message.c_str());
-    return 1;
-  };
+std::string DiagnoseLog(const DiagnoseLogOptions& options, dg::Diagnosis* result, nlohmann::json* document) {
   // the report's folder, checked before the diagnosis (a minute or more) rather than after
   if (!options.report_dir.empty()) {
-    if (std::string e = ReportDirProblem(options.report_dir); !e.empty()) return fail(e);
+    if (std::string e = ReportDirProblem(options.report_dir); !e.empty()) return e;
   }
   log::ReadOptions read;
   log::ReadResult train = log::ReadLog(options.train_path, read);
-  if (!train.log) return fail(train.error);
+  if (!train.log) return train.error;
   std::optional<log::Log> heldout;
   if (!options.heldout_path.empty()) {
     log::ReadResult h = log::ReadLog(options.heldout_path, read);
-    if (!h.log) return fail(h.error);
+    if (!h.log) return h.error;
     heldout = std::move(h.log);
   }
   std::optional<log::Log> test;
   if (!options.test_path.empty()) {
     log::ReadResult t = log::ReadLog(options.test_path, read);
-    if (!t.log) return fail(t.error);
+    if (!t.log) return t.error;
     test = std::move(t.log);
   }
-  dg::DiagnoseOptions o = options.diagnose;
-  if (!options.quiet) o.progress = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
+  const dg::DiagnoseOptions& o = options.diagnose;
   dg::Diagnosis d = dg::Diagnose(options.model_path, *train.log, heldout ? &*heldout : nullptr, o);
-  if (!d.error.empty()) return fail(d.error);
+  if (!d.error.empty()) return d.error;
   nlohmann::json j = DiagnosisJson(d);
   if (test) {
     const dg::Graded g = dg::GradeOnLog(options.model_path, d, *test, o);
-    if (!g.error.empty()) return fail(options.test_path + ": " + g.error);
+    if (!g.error.empty()) return options.test_path + ": " + g.error;
     j["test"] = {{"log", options.test_path}, {"gap_before", g.gap_before}, {"gap_calibrated", g.gap_calibrated}, {"gap_after", g.gap_after},
                  {"shrink_pct", 100 * (g.gap_before - g.gap_after) / g.gap_before}};
   }
   if (!options.report_dir.empty()) {
-    if (std::string e = WriteReport(d, j, options); !e.empty()) return fail(e);
-    if (!options.quiet) std::fprintf(stderr, "report: %s/index.html\n", options.report_dir.c_str());
+    if (std::string e = WriteReport(d, j, options); !e.empty()) return e;
   }
-  std::printf("%s\n", j.dump(2).c_str());
-  return 0;
+  *result = std::move(d);
+  *document = std::move(j);
+  return "";
 }
 
 }  // namespace pneumatic

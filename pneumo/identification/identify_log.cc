@@ -11,15 +11,15 @@
 #include <mujoco/mujoco.h>
 #include <nlohmann/json.hpp>
 
+#include "formats/log_csv.h"
+#include "formats/model_file.h"
+#include "formats/output_file.h"
+#include "formats/report_files.h"
 #include "identification/chamber_series.h"
 #include "identification/drift.h"
 #include "identification/output_error_fit.h"
 #include "identification/parametric_fit.h"
 #include "identification/physical_fit.h"
-#include "formats/log_csv.h"
-#include "formats/model_file.h"
-#include "formats/output_file.h"
-#include "formats/report_files.h"
 #include "pneumatic/pneumatic.h"
 #include "simulation/rollout.h"
 
@@ -34,20 +34,7 @@ namespace id = identification;
 constexpr int kDriftStarts = 48;
 constexpr double kDriftHorizon = 2.0;  // s
 
-int Fail(const std::string& message) {
-  std::fprintf(stderr, "pneumo identify: %s\n", message.c_str());
-  return 1;
-}
-
-void Say(const std::string& message) { std::fprintf(stderr, "pneumo identify: %s\n", message.c_str()); }
-
-struct ModelDeleter {
-  void operator()(mjModel* m) const {
-    Detach(m);
-    mj_deleteModel(m);
-  }
-};
-using ModelPtr = std::unique_ptr<mjModel, ModelDeleter>;
+using ModelPtr = IdentifiedModelPtr;
 
 ModelPtr LoadAttached(const std::string& path, std::string* error) {
   char buffer[1000] = "";
@@ -109,12 +96,12 @@ json DriftJson(const id::DriftCurve& curve) {
 // each one-step fit replaced by its output-error refinement (identification/output_error_fit.h); the
 // chamber's JSON keeps the one-step c and says what the refinement did. Standard errors are the
 // one-step fit's covariance, which does not hold at the refined c: they become null
-std::string RefineFits(const std::vector<id::ChamberSeries>& series, double horizon_s, int threads,
+std::string RefineFits(const std::vector<id::ChamberSeries>& series, double horizon_s, int threads, const IdentifySay& say,
                        std::vector<id::ParametricFit>* fits, json* chambers) {
   char line[120];
   std::snprintf(line, sizeof(line), "refining each chamber's fit on its own predictions over %g s sequences (output error)",
                 horizon_s);
-  Say(line);
+  say(line);
   std::vector<id::ParametricModel> starts;
   for (const id::ParametricFit& fit : *fits) starts.push_back(fit.model);
   id::OutputErrorOptions options;
@@ -148,10 +135,10 @@ std::string RefineFits(const std::vector<id::ChamberSeries>& series, double hori
 // the parametric model per chamber: fit on the training log (refined on its own predictions if
 // refine_horizon_s > 0), scored on the held-out one
 std::string FitParametric(const mjModel* m, const log::Log& train, const log::Log* heldout, double refine_horizon_s,
-                          int threads, std::vector<id::ParametricFit>* fits, json* report) {
+                          int threads, const IdentifySay& say, std::vector<id::ParametricFit>* fits, json* report) {
   std::vector<id::ChamberSeries> series;
   if (std::string e = id::ExtractChambers(m, train, &series); !e.empty()) return e;
-  Say("fitting paper 000's model (eqs. 7-10) to " + std::to_string(series.size()) + " chambers, " +
+  say("fitting paper 000's model (eqs. 7-10) to " + std::to_string(series.size()) + " chambers, " +
       std::to_string(series[0].u.size()) + " samples each");
   *fits = id::FitChambers(series, id::ParametricFitOptions{}, threads);
   json chambers = json::object();
@@ -160,10 +147,10 @@ std::string FitParametric(const mjModel* m, const log::Log& train, const log::Lo
     chambers[fit.name] = ChamberJson(fit);
   }
   if (refine_horizon_s > 0) {
-    if (std::string e = RefineFits(series, refine_horizon_s, threads, fits, &chambers); !e.empty()) return e;
+    if (std::string e = RefineFits(series, refine_horizon_s, threads, say, fits, &chambers); !e.empty()) return e;
   }
   for (const id::ParametricFit& fit : *fits) {
-    for (const std::string& w : fit.warnings) Say("warning: " + fit.name + ": " + w);
+    for (const std::string& w : fit.warnings) say("warning: " + fit.name + ": " + w);
   }
   (*report)["chambers"] = chambers;
   if (!heldout) return "";
@@ -222,7 +209,8 @@ std::optional<double> FollowMotionRms(const mjModel* m, const log::Log& log, std
 }
 
 std::string FitPhysical(const mjModel* m, const log::Log& train, const log::Log* heldout,
-                        const std::vector<std::string>& key_texts, int threads, ModelPtr* fitted, json* report) {
+                        const std::vector<std::string>& key_texts, int threads, const IdentifySay& say, ModelPtr* fitted,
+                        json* report) {
   id::PhysicalFitOptions options;
   options.threads = threads;
   std::string error;
@@ -241,11 +229,11 @@ std::string FitPhysical(const mjModel* m, const log::Log& train, const log::Log*
   }
   std::string names;
   for (const id::FitKey& k : options.keys) names += (names.empty() ? "" : ", ") + k.name();
-  Say("fitting the physical parameters " + names + " by simulating the pressures along the measured motion");
-  options.progress = [](const std::string& line) { Say("  " + line); };
+  say("fitting the physical parameters " + names + " by simulating the pressures along the measured motion");
+  options.progress = [&say](const std::string& line) { say("  " + line); };
   id::PhysicalFit fit = id::FitPhysical(m, train, options);
   if (!fit.error.empty()) return fit.error;
-  for (const std::string& w : fit.warnings) Say("warning: " + w);
+  for (const std::string& w : fit.warnings) say("warning: " + w);
 
   json parameters = json::object();
   for (const id::FittedParameter& p : fit.parameters) {
@@ -255,7 +243,7 @@ std::string FitPhysical(const mjModel* m, const log::Log& train, const log::Log*
                                      {"initial", p.initial},
                                      {"poorly_determined", p.poorly_determined.empty() ? json(nullptr)
                                                                                       : json(p.poorly_determined)}};
-    if (!p.poorly_determined.empty()) Say("warning: " + p.cylinder + ":" + p.key + " poorly determined: " + p.poorly_determined);
+    if (!p.poorly_determined.empty()) say("warning: " + p.cylinder + ":" + p.key + " poorly determined: " + p.poorly_determined);
   }
   (*report)["physical"] = {{"parameters", parameters},
                            {"rms_before_pa", fit.rms_before_pa},
@@ -319,50 +307,68 @@ std::string PlotDrift(const std::string& json_path, const std::string& png_path)
 
 }  // namespace
 
-int RunIdentify(const IdentifyOptions& options) {
-  if (!options.parametric && !options.physical) return Fail("nothing to fit: both fits are switched off");
+void IdentifiedModelDeleter::operator()(mjModel* m) const {
+  Detach(m);
+  mj_deleteModel(m);
+}
+
+std::string CheckIdentifyOptions(const IdentifyOptions& options) {
+  if (!options.parametric && !options.physical) return "nothing to fit: both fits are switched off";
   if (options.write_identified_model_path.size() && !options.parametric) {
-    return Fail("--write-identified-model needs the parametric fit");
+    return "--write-identified-model needs the parametric fit";
   }
-  if (options.write_model_path.size() && !options.physical) return Fail("--write-model needs the physical fit");
+  if (options.write_model_path.size() && !options.physical) return "--write-model needs the physical fit";
   // the outputs, checked before the fits (minutes on a large model) rather than after
   for (const auto& [path, kind] : {std::pair{options.out_path, "a JSON file"}, std::pair{options.plot_path, "a PNG image"},
                                    std::pair{options.write_model_path, "a model file"},
                                    std::pair{options.write_identified_model_path, "a model file"}}) {
     if (path.empty()) continue;
-    if (std::string e = CheckOutputPath(path, kind); !e.empty()) return Fail(e);
+    if (std::string e = CheckOutputPath(path, kind); !e.empty()) return e;
   }
-  std::string error;
-  ModelPtr model = LoadAttached(options.model_path, &error);
-  if (!model) return Fail(error);
-  std::optional<log::Log> train = ReadLogFor(model.get(), options.log_path, &error);
-  if (!train) return Fail(error);
+  return "";
+}
+
+IdentifyResult IdentifyLog(const IdentifyOptions& options, const IdentifySay& say) {
+  IdentifyResult result;
+  std::string& error = result.error;
+  result.model = LoadAttached(options.model_path, &error);
+  if (!result.model) return result;
+  const mjModel* model = result.model.get();
+  std::optional<log::Log> train = ReadLogFor(model, options.log_path, &error);
+  if (!train) return result;
   std::optional<log::Log> heldout;
   if (!options.heldout_path.empty()) {
-    heldout = ReadLogFor(model.get(), options.heldout_path, &error);
-    if (!heldout) return Fail(error);
+    heldout = ReadLogFor(model, options.heldout_path, &error);
+    if (!heldout) return result;
   }
   const log::Log* held = heldout ? &*heldout : nullptr;
 
-  json report = {{"model", options.model_path}, {"log", options.log_path}};
+  json& report = result.report;
+  report = {{"model", options.model_path}, {"log", options.log_path}};
   if (held) report["heldout"]["log"] = options.heldout_path;
-  std::vector<id::ParametricFit> fits;
   if (options.parametric) {
-    if (std::string e = FitParametric(model.get(), *train, held, options.refine_horizon_s, options.threads, &fits, &report);
+    if (std::string e = FitParametric(model, *train, held, options.refine_horizon_s, options.threads, say, &result.fits,
+                                      &report);
         !e.empty()) {
-      return Fail(options.log_path + ": " + e);
+      error = options.log_path + ": " + e;
+      return result;
     }
   }
-  ModelPtr fitted;
   if (options.physical) {
-    if (std::string e = FitPhysical(model.get(), *train, held, options.fit_keys, options.threads, &fitted, &report);
+    if (std::string e = FitPhysical(model, *train, held, options.fit_keys, options.threads, say, &result.fitted, &report);
         !e.empty()) {
-      return Fail(options.log_path + ": " + e);
+      error = options.log_path + ": " + e;
+      return result;
     }
   }
+  return result;
+}
 
-  if (std::string e = WriteOutput(options.out_path, report.dump(2) + "\n", "a JSON file"); !e.empty()) return Fail(e);
-  Say("wrote " + options.out_path);
+std::string WriteIdentifyOutputs(const IdentifyOptions& options, const IdentifyResult& result, const IdentifySay& say) {
+  const json& report = result.report;
+  const bool held = !options.heldout_path.empty();
+  if (std::string e = WriteOutput(options.out_path, report.dump(2) + "\n", "a JSON file"); !e.empty()) return e;
+  say("wrote " + options.out_path);
   if (held && options.parametric) {
     std::string png = options.plot_path;
     if (png.empty()) {
@@ -370,27 +376,27 @@ int RunIdentify(const IdentifyOptions& options) {
       if (png.size() > 5 && png.compare(png.size() - 5, 5, ".json") == 0) png.resize(png.size() - 5);
       png += ".drift.png";
     }
-    if (std::string e = PlotDrift(options.out_path, png); !e.empty()) return Fail(e);
+    if (std::string e = PlotDrift(options.out_path, png); !e.empty()) return e;
     const json& pooled = report["heldout"]["parametric"];
     char line[200];
     std::snprintf(line, sizeof(line), "held-out drift after %.0f s: %.2f %% of p_supply - p_exhaust (paper 000: usually "
                   "< 4 %%, always < 10 %%); wrote %s", kDriftHorizon, pooled["pooled_drift_std_pct_at_horizon"].get<double>(),
                   png.c_str());
-    Say(line);
+    say(line);
   }
   if (!options.write_model_path.empty()) {
-    if (std::string e = WriteModelWithParameters(options.model_path, fitted.get(), options.write_model_path,
+    if (std::string e = WriteModelWithParameters(options.model_path, result.fitted.get(), options.write_model_path,
                                                  "physical parameters fitted by pneumo identify to " + options.log_path);
         !e.empty()) {
-      return Fail(e);
+      return e;
     }
-    Say("wrote " + options.write_model_path);
+    say("wrote " + options.write_model_path);
   }
   if (!options.write_identified_model_path.empty()) {
-    if (std::string e = WriteIdentifiedModel(options, model.get(), fits); !e.empty()) return Fail(e);
-    Say("wrote " + options.write_identified_model_path);
+    if (std::string e = WriteIdentifiedModel(options, result.model.get(), result.fits); !e.empty()) return e;
+    say("wrote " + options.write_identified_model_path);
   }
-  return 0;
+  return "";
 }
 
 }  // namespace pneumatic

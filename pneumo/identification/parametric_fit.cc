@@ -13,8 +13,8 @@
 #include <Eigen/Dense>
 
 #include "identification/drift.h"
-#include "simulation/parallel_for.h"
 #include "identification/uncertainty.h"
+#include "simulation/parallel_for.h"
 
 namespace pneumatic::identification {
 namespace {

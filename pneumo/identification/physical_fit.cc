@@ -13,8 +13,8 @@
 
 #include <ceres/ceres.h>
 
-#include "simulation/parallel_for.h"
 #include "pneumatic/pneumatic.h"
+#include "simulation/parallel_for.h"
 #include "simulation/rollout.h"
 
 namespace pneumatic::identification {

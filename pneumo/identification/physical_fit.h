@@ -38,8 +38,8 @@
 #include <Eigen/Dense>
 #include <mujoco/mujoco.h>
 
-#include "identification/uncertainty.h"
 #include "formats/log_csv.h"
+#include "identification/uncertainty.h"
 
 namespace pneumatic::identification {
 

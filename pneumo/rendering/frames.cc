@@ -10,13 +10,12 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <iostream>
 #include <sstream>
 
-#include "pneumatic/pneumatic.h"
-#include "simulation/rollout.h"
 #include "formats/model_loading.h"
+#include "pneumatic/pneumatic.h"
 #include "simulation/prescribed_motion.h"
+#include "simulation/rollout.h"
 
 extern char** environ;
 
@@ -90,13 +89,6 @@ std::string RenderToFile(const RenderOptions& options) {
   std::vector<unsigned char> rgb;
   if (std::string problem = renderer->Render(d.get(), options.camera, &rgb); !problem.empty()) return problem;
   return WritePng(options.out_path, options.width, options.height, rgb);
-}
-
-int RunRender(const RenderOptions& options) {
-  std::string problem = RenderToFile(options);
-  if (problem.empty()) return 0;
-  std::cerr << "pneumo render: " << problem << "\n";
-  return 1;
 }
 
 // ---------------------------------------------------------------------------------------------

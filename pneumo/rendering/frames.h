@@ -1,8 +1,8 @@
-// `pneumo render MODEL.xml --out frame.png [--log LOG.csv [--time T]]`: one picture of a model
-// (its reset state, or the state of a log's row), and FrameWriter: the frame sequence (and MP4)
+// What `pneumo render MODEL.xml --out frame.png [--log LOG.csv [--time T]]` draws: one picture of a
+// model (its reset state, or the state of a log's row), and FrameWriter: the frame sequence (and MP4)
 // of `pneumo rollout ... --frames DIR --fps 30`.
-#ifndef PNEUMATIC_RENDER_COMMAND_H_
-#define PNEUMATIC_RENDER_COMMAND_H_
+#ifndef PNEUMATIC_FRAMES_H_
+#define PNEUMATIC_FRAMES_H_
 
 #include <memory>
 #include <optional>
@@ -39,10 +39,6 @@ std::string SetStateFromLog(const mjModel* m, mjData* d, const log::Log& log, st
 // Loads and attaches the model, sets the state (the model's reset state, or the log's row),
 // runs mj_forward and writes the picture. "" or the message (naming the file at fault).
 std::string RenderToFile(const RenderOptions& options);
-
-// RenderToFile for the command line: prints "pneumo render: MESSAGE" to standard error and
-// returns 1 on failure, 0 on success.
-int RunRender(const RenderOptions& options);
 
 struct FrameOptions {
   std::string dir;         // created if missing (one level); frames are DIR/frame_00000.png, ...
@@ -98,4 +94,4 @@ std::string FindOnPath(const std::string& program);
 
 }  // namespace pneumatic
 
-#endif  // PNEUMATIC_RENDER_COMMAND_H_
+#endif  // PNEUMATIC_FRAMES_H_

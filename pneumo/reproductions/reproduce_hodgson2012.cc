@@ -11,8 +11,8 @@
 #include <memory>
 #include <sstream>
 
-#include "pneumatic/pneumatic.h"
 #include "formats/model_loading.h"
+#include "pneumatic/pneumatic.h"
 
 namespace pneumatic {
 namespace {

@@ -28,8 +28,8 @@
 #include <mujoco/mujoco.h>
 #include <nlohmann/json.hpp>
 
-#include "simulation/closed_loop.h"
 #include "formats/log_csv.h"
+#include "simulation/closed_loop.h"
 #include "sliding_mode.h"
 
 namespace pneumatic {

@@ -36,9 +36,9 @@
 #include <mujoco/mujoco.h>
 #include <nlohmann/json.hpp>
 
-#include "simulation/closed_loop.h"
-#include "karpenko_pid.h"
 #include "formats/log_csv.h"
+#include "karpenko_pid.h"
+#include "simulation/closed_loop.h"
 
 namespace pneumatic {
 

@@ -12,10 +12,10 @@
 #include <regex>
 #include <sstream>
 
-#include "simulation/closed_loop.h"
 #include "formats/log_csv.h"
 #include "formats/model_loading.h"
 #include "pneumatic/pneumatic.h"
+#include "simulation/closed_loop.h"
 
 namespace pneumatic {
 namespace {

@@ -21,8 +21,8 @@
 
 #include <mujoco/mujoco.h>
 
-#include "formats/log_csv.h"
 #include "controller.h"
+#include "formats/log_csv.h"
 #include "position_pid.h"
 
 namespace pneumatic {

@@ -8,8 +8,8 @@
 #include <vector>
 
 #include "pid.h"
-#include "simulation/random_stream.h"
 #include "pneumatic/pneumatic.h"
+#include "simulation/random_stream.h"
 #include "simulation/rollout.h"
 
 namespace pneumatic {

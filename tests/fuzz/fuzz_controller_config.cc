@@ -10,10 +10,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "simulation/controller_config.h"
 #include "karpenko_pid.h"
 #include "laib_smc.h"
 #include "position_stiffness.h"
+#include "simulation/controller_config.h"
 #include "sliding_mode.h"
 
 namespace {
