@@ -479,13 +479,12 @@ TEST_F(RolloutTest, FollowMotionReproducesTheLogsPositionsOnTheOnOffRig) {
 // where its sites are x + x_mid apart. A closed-loop wave of the humanoid at 1 kHz (a row per model step:
 // the logged motion is the motion, not a curve through it), replayed with its commands along its own
 // logged motion, must put every piston where the log has it and give back the log's pressures: the same
-// motion and the same valve commands make the same chamber steps, to round-off. Without constraints: the
-// closed loop's chambers follow the end-of-step velocity predicted without constraint forces
-// (plugin/src/velocity_prediction.h), the replay's the exact one
+// motion and the same valve commands make the same chamber steps, to round-off. With the humanoid's joint
+// limits acting: the closed loop's chambers follow the end-of-step velocity MuJoCo's constraint solve
+// gives (plugin/src/velocity_prediction.h), the replay's the logged one
 TEST_F(RolloutTest, FollowMotionSetsTheHumanoidsHingesFromTheirCylinders) {
   Load("humanoid_pneumatic.xml");
   std::unique_ptr<mjModel, void (*)(mjModel*)> free(mj_copyModel(nullptr, m()), mj_deleteModel);
-  free->opt.disableflags |= mjDSBL_CONSTRAINT;
   ClosedLoopOptions closed;
   ASSERT_EQ(ReadControllerConfig(ShippedModel("humanoid_pid.json"), &closed), "");
   log::ReadOptions read;

@@ -47,34 +47,64 @@ bool AnyDamping(const mjModel* m) {
   return false;
 }
 
+// MuJoCo's constraint solve for this pass (mj_fwdAcceleration, then mj_fwdConstraint), run ahead
+// of MuJoCo's own so that the prediction sees the constraint forces (a frictionloss holding the
+// piston, a joint limit, a contact). The solve is warm-started from qacc_warmstart (efc_force too,
+// for PGS), which it overwrites: both are put back, so that MuJoCo's own solve, after act_dot,
+// starts from the same numbers and ends at the same qacc, bit for bit. Returns false, with nothing
+// changed, when the model has no constraint rows this step.
+bool SolveConstraintsAhead(const mjModel* m, mjData* d) {
+  if (d->nefc == 0) return false;
+  mjtNum* warmstart = mj_stackAlloc(d, m->nv);
+  mjtNum* efc_force = mj_stackAlloc(d, d->nefc);
+  mju_copy(warmstart, d->qacc_warmstart, m->nv);
+  mju_copy(efc_force, d->efc_force, d->nefc);
+  mj_fwdAcceleration(m, d);
+  mj_fwdConstraint(m, d);
+  mju_copy(d->qacc_warmstart, warmstart, m->nv);
+  mju_copy(d->efc_force, efc_force, d->nefc);
+  return true;
+}
+
 }  // namespace
 
 void PredictEndOfStepVelocity(const mjModel* m, mjData* d, mjtNum* velocity) {
   int nv = m->nv;
   double h = m->opt.timestep;
   mjMARKSTACK;
-  // the smooth forces, everything but the constraints
+  bool constrained = SolveConstraintsAhead(m, d);
+  bool damped = AnyDamping(m);
   mjtNum* qacc = mj_stackAlloc(d, nv);
-  for (int i = 0; i < nv; ++i) {
-    qacc[i] = d->qfrc_passive[i] - d->qfrc_bias[i] + d->qfrc_applied[i] + d->qfrc_actuator[i];
-  }
-  for (int b = 1; b < m->nbody; ++b) {
-    mjtNum* wrench = d->xfrc_applied + 6 * b;
-    bool zero = true;
-    for (int i = 0; i < 6; ++i) zero &= wrench[i] == 0;
-    if (!zero) mj_applyFT(m, d, wrench, wrench + 3, d->xipos + 3 * b, b, qacc);
-  }
-  if (AnyDamping(m)) {
-    // (M + h B) qacc = force, as mj_EulerSkip solves it
-    mjtNum* ld = mj_stackAlloc(d, m->nM);
-    mjtNum* diag_inverse = mj_stackAlloc(d, nv);
-    mju_copy(ld, d->qM, m->nM);
-    for (int i = 0; i < nv; ++i) ld[m->dof_Madr[i]] += h * m->dof_damping[i];
-    FactorTreeSparse(m, ld, diag_inverse);
-    SolveTreeSparse(m, ld, diag_inverse, qacc);
+  if (constrained && !damped) {
+    // the acceleration MuJoCo's Euler step will use, as its constraint solve gives it
+    mju_copy(qacc, d->qacc, nv);
   } else {
-    // M qacc = force with the factor mj_fwdPosition made
-    mj_solveM(m, d, qacc, qacc, 1);
+    // every force on the dofs, summed as mj_EulerSkip sums them when constrained
+    if (constrained) {
+      mju_add(qacc, d->qfrc_smooth, d->qfrc_constraint, nv);
+    } else {
+      for (int i = 0; i < nv; ++i) {
+        qacc[i] = d->qfrc_passive[i] - d->qfrc_bias[i] + d->qfrc_applied[i] + d->qfrc_actuator[i];
+      }
+      for (int b = 1; b < m->nbody; ++b) {
+        mjtNum* wrench = d->xfrc_applied + 6 * b;
+        bool zero = true;
+        for (int i = 0; i < 6; ++i) zero &= wrench[i] == 0;
+        if (!zero) mj_applyFT(m, d, wrench, wrench + 3, d->xipos + 3 * b, b, qacc);
+      }
+    }
+    if (damped) {
+      // (M + h B) qacc = force, as mj_EulerSkip solves it
+      mjtNum* ld = mj_stackAlloc(d, m->nM);
+      mjtNum* diag_inverse = mj_stackAlloc(d, nv);
+      mju_copy(ld, d->qM, m->nM);
+      for (int i = 0; i < nv; ++i) ld[m->dof_Madr[i]] += h * m->dof_damping[i];
+      FactorTreeSparse(m, ld, diag_inverse);
+      SolveTreeSparse(m, ld, diag_inverse, qacc);
+    } else {
+      // M qacc = force with the factor mj_fwdPosition made
+      mj_solveM(m, d, qacc, qacc, 1);
+    }
   }
   // semi-implicit Euler: qvel(t + h) = qvel + h qacc
   for (int i = 0; i < nv; ++i) velocity[i] = d->qvel[i] + h * qacc[i];

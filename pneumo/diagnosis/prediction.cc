@@ -41,9 +41,12 @@ double TrueValue(const Measurements& meas, const SignalModel& sensors, int signa
 
 class WindowRunner {
  public:
+  // along the measured motion (the pneumatic side), on a private copy of m (PrescribedMotionModel)
   WindowRunner(const mjModel* m, const Measurements& meas, const SignalModel& signals, PredictionKind kind)
-      : m_(m), meas_(meas), signals_(signals), kind_(kind), d_(mj_makeData(m), mj_deleteData),
-        snapshot_(mj_makeData(m), mj_deleteData) {
+      : prescribed_(kind == PredictionKind::kPneumatic ? PrescribedMotionModel(m)
+                                                       : std::unique_ptr<mjModel, void (*)(mjModel*)>(nullptr, mj_deleteModel)),
+        m_(prescribed_ ? prescribed_.get() : m), meas_(meas), signals_(signals), kind_(kind), d_(mj_makeData(m_), mj_deleteData),
+        snapshot_(mj_makeData(m_), mj_deleteData) {
     // the cylinders as the model being predicted has them (its lines, the reservoir that feeds each),
     // in the log's order
     const std::vector<CylinderInfo> cylinders = Cylinders(m_);
@@ -321,7 +324,7 @@ class WindowRunner {
       d->qpos[m_->jnt_qposadr[cyl.joint]] = (a + cyl.info.x_mid) / cyl.gear;
       d->qvel[m_->jnt_dofadr[cyl.joint]] = (b - a) / h / cyl.gear;
     }
-    StepAlongPrescribedMotion(m_, d);
+    StepAlongPrescribedMotion(prescribed_.get(), d);
   }
 
   void Record(int row, std::vector<std::vector<double>>* out) {
@@ -340,6 +343,7 @@ class WindowRunner {
     }
   }
 
+  std::unique_ptr<mjModel, void (*)(mjModel*)> prescribed_;
   const mjModel* m_;
   const Measurements& meas_;
   const SignalModel& signals_;

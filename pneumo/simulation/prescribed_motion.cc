@@ -46,12 +46,19 @@ std::string PistonJointState(const mjModel* m, const mjData* d, const CylinderIn
   return "";
 }
 
-void StepAlongPrescribedMotion(const mjModel* m, mjData* d) {
+std::unique_ptr<mjModel, void (*)(mjModel*)> PrescribedMotionModel(const mjModel* m) {
+  return std::unique_ptr<mjModel, void (*)(mjModel*)>(mj_copyModel(nullptr, m), mj_deleteModel);
+}
+
+void StepAlongPrescribedMotion(mjModel* m, mjData* d) {
+  const int flags = m->opt.disableflags;
+  m->opt.disableflags |= mjDSBL_CONSTRAINT;
   mju_zero(d->qfrc_applied, m->nv);
   mj_forward(m, d);
   for (int i = 0; i < m->nv; ++i) d->qfrc_applied[i] = -(d->qfrc_passive[i] - d->qfrc_bias[i] + d->qfrc_actuator[i]);
   mj_step(m, d);
   mju_zero(d->qfrc_applied, m->nv);
+  m->opt.disableflags = flags;
 }
 
 }  // namespace pneumatic

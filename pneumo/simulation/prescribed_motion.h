@@ -5,6 +5,7 @@
 #ifndef PNEUMATIC_PRESCRIBED_MOTION_H_
 #define PNEUMATIC_PRESCRIBED_MOTION_H_
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <utility>
@@ -38,10 +39,18 @@ std::string PistonJointState(const mjModel* m, const mjData* d, const CylinderIn
                              std::optional<double> v, std::optional<double> x_next, double timestep,
                              JointState* out);
 
-// One mj_step with the prescribed qpos and qvel already written: the smooth forces (passive, bias
-// and actuator) are cancelled through qfrc_applied, so that MuJoCo's semi-implicit step moves each
-// joint by exactly qvel h and the chambers' step sees that motion. qfrc_applied is zero afterwards.
-void StepAlongPrescribedMotion(const mjModel* m, mjData* d);
+// A copy of m (attached, as m is) that StepAlongPrescribedMotion may edit: a private model for
+// stepping along a prescribed motion. Null if MuJoCo cannot copy m.
+std::unique_ptr<mjModel, void (*)(mjModel*)> PrescribedMotionModel(const mjModel* m);
+
+// One mj_step with the prescribed qpos and qvel already written, on m (a PrescribedMotionModel): the
+// smooth forces (passive, bias and actuator) are cancelled through qfrc_applied, so that MuJoCo's
+// semi-implicit step moves each joint by exactly qvel h and the chambers' step sees that motion.
+// MuJoCo's constraints are disabled for the step (m->opt.disableflags, put back after it): where the
+// motion is prescribed, a joint limit, a contact or a frictionloss would push the joints off it, and
+// the chambers, which follow the motion MuJoCo's constraint solve gives, with them. qfrc_applied is
+// zero afterwards.
+void StepAlongPrescribedMotion(mjModel* m, mjData* d);
 
 }  // namespace pneumatic
 

@@ -72,12 +72,19 @@ std::string CheckMeasurements(const mjModel* m, const log::Log& log) {
   return "";
 }
 
-RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutOptions& options) {
+RolloutResult Rollout(const mjModel* model, const log::Log* commands, const RolloutOptions& options) {
   RolloutResult result;
   auto fail = [&](const std::string& message) {
     result.error = message;
     return result;
   };
+  // along a measured motion, a private copy that StepAlongPrescribedMotion steps without constraints
+  std::unique_ptr<mjModel, void (*)(mjModel*)> prescribed(nullptr, mj_deleteModel);
+  if (options.follow_motion) {
+    prescribed = PrescribedMotionModel(model);
+    if (!prescribed) return fail("MuJoCo could not copy the model");
+  }
+  const mjModel* m = options.follow_motion ? prescribed.get() : model;
   std::vector<CylinderInfo> cylinders;
   if (std::string problem = AttachedCylinders(m, &cylinders); !problem.empty()) return fail(problem);
 
@@ -189,7 +196,7 @@ RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutO
   // with the motion prescribed, each piston moves exactly to the curve's next point
   auto step_along_motion = [&](mjData* data, size_t row, long k) -> std::string {
     if (std::string e = set_motion(data, row, k); !e.empty()) return e;
-    StepAlongPrescribedMotion(m, data);
+    StepAlongPrescribedMotion(prescribed.get(), data);
     return "";
   };
   if (options.follow_motion) {
