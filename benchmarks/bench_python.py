@@ -4,7 +4,7 @@ per call) on rig C and the humanoid, against the same steps in one call; closed-
 second from Python against `pneumo rollout` started as a process; rollouts on 1 and 2 Python threads
 (each rollout releases the GIL). Prints a Markdown table with the machine and the command.
 
-usage: PYTHONPATH=build/python benchmarks/bench_python.py [--seconds 2] [--pneumo build/bin/pneumo]
+usage: PYTHONPATH=build/python benchmarks/bench_python.py [--steps 100000] [--rollouts 8] [--pneumo build/bin/pneumo]
 """
 import argparse
 import os
@@ -28,24 +28,22 @@ def machine():
             cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
     except (OSError, StopIteration):
         pass
-    return "%s, %d cores, Python %s" % (cpu, os.cpu_count(), platform.python_version())
+    load = " (load average %.1f before the run)" % os.getloadavg()[0] if hasattr(os, "getloadavg") else ""
+    return "%s, %d cores, Python %s%s" % (cpu, os.cpu_count(), platform.python_version(), load)
 
 
-def steps_per_second(model, per_call, seconds):
-    """Steps per second of `for _ in range(calls): sim.step(per_call)`, timed over about `seconds`."""
+def steps_per_second(model, steps, per_call, repeats=3):
+    """Steps per second of `for _ in range(steps // per_call): sim.step(per_call)` from the reset state
+    (the valves at their reset commands), the best of `repeats` runs of the same steps."""
     sim = pneumatic.Simulation(model)
-    # commands as the model's reset state leaves them
-    calls = 10
-    while True:
-        start = time.perf_counter()
-        for _ in range(calls):
-            sim.step(per_call)
-        wall = time.perf_counter() - start
-        if wall > seconds / 4:
-            break
-        calls *= 4
+    best = 0
+    for _ in range(repeats):
         sim.reset()
-    return calls * per_call / wall
+        start = time.perf_counter()
+        for _ in range(steps // per_call):
+            sim.step(per_call)
+        best = max(best, steps / (time.perf_counter() - start))
+    return best
 
 
 def rollouts_per_second(run, count):
@@ -71,22 +69,23 @@ def threaded_rollouts_per_second(run, count, threads):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--seconds", type=float, default=2, help="time per stepping figure, s")
+    parser.add_argument("--steps", type=int, default=100000, help="steps per stepping figure (the humanoid: a tenth)")
     parser.add_argument("--rollouts", type=int, default=8, help="closed-loop rollouts per rollout figure (even)")
     parser.add_argument("--pneumo", default=os.environ.get("PNEUMO", os.path.join(HERE, "..", "build", "bin", "pneumo")))
     args = parser.parse_args()
 
+    machine_line = machine()
     rows = []
-    for name in ("rig_per_chamber.xml", "humanoid_pneumatic.xml"):
+    for name, steps in (("rig_per_chamber.xml", args.steps), ("humanoid_pneumatic.xml", args.steps // 10)):
         model = pneumatic.load(os.path.join(MODELS, name))
-        one = steps_per_second(model, 1, args.seconds)
-        ten = steps_per_second(model, 10, args.seconds)
-        whole = steps_per_second(model, 1000, args.seconds)
-        rows.append("| `%s`: steps/s, `sim.step()` in a Python loop | %.0f |" % (name, one))
-        rows.append("| `%s`: steps/s, `sim.step(10)` in a Python loop | %.0f |" % (name, ten))
-        rows.append("| `%s`: steps/s, `sim.step(1000)` (the loop in C++) | %.0f |" % (name, whole))
-        rows.append("| `%s`: real-time factor of `sim.step()` in a loop at 1 kHz (%.0f ms step) | %.1f |"
-                    % (name, 1000 * model.timestep, one * model.timestep))
+        one = steps_per_second(model, steps, 1)
+        ten = steps_per_second(model, steps, 10)
+        whole = steps_per_second(model, steps, steps)
+        what = "`%s` (%g ms step), %d steps" % (name, 1000 * model.timestep, steps)
+        rows.append("| %s: steps/s, `sim.step()` in a Python loop | %.0f |" % (what, one))
+        rows.append("| %s: steps/s, `sim.step(10)` in a Python loop | %.0f |" % (what, ten))
+        rows.append("| %s: steps/s, `sim.step(%d)`: one call, the loop in C++ | %.0f |" % (what, steps, whole))
+        rows.append("| %s: Python's cost per `sim.step()` call | %.2f us |" % (what, 1e6 * (1 / one - 1 / whole)))
 
     # closed-loop rollouts: 1 s of rig C under PID, the same from Python and from the command line
     rig = os.path.join(MODELS, "rig_per_chamber.xml")
@@ -110,7 +109,7 @@ def main():
     rows.append("| humanoid, 0.5 s under PID: rollouts/s on 2 Python threads | %.2f (x%.2f) |"
                 % (two_threads, two_threads / one_thread))
 
-    print("machine: %s" % machine())
+    print("machine: %s" % machine_line)
     print("command: `PYTHONPATH=build/python %s`" % " ".join(["benchmarks/bench_python.py"] + sys.argv[1:]))
     print()
     print("| figure | value |")
