@@ -2,6 +2,7 @@
 // numpy arrays that alias MuJoCo's memory, and the chambers' absolute pressures.
 #include <mutex>
 #include <string>
+#include <vector>
 
 #include <pybind11/numpy.h>
 
@@ -15,7 +16,6 @@ class Simulation {
  public:
   explicit Simulation(ModelHandle model) : model_(std::move(model)), data_(mj_makeData(model_->get()), mj_deleteData) {
     if (!data_) throw RunError("MuJoCo could not allocate the data of " + model_->path);
-    cylinders_ = Cylinders(model_->get());
   }
 
   // n steps of mj_step; RuntimeError naming the time if MuJoCo found the state diverged (it then
@@ -54,18 +54,22 @@ class Simulation {
     mj_resetDataKeyframe(m, data_.get(), key);
   }
 
+  // the cylinders as the model's parameters are now (a set() may have changed p_atm)
   py::array_t<double> Pressures() const {
-    py::array_t<double> out({static_cast<py::ssize_t>(cylinders_.size()), static_cast<py::ssize_t>(2)});
+    std::shared_lock lock(model_->lock);
+    const std::vector<CylinderInfo> cylinders = Cylinders(model_->get());
+    py::array_t<double> out({static_cast<py::ssize_t>(cylinders.size()), static_cast<py::ssize_t>(2)});
     auto p = out.mutable_unchecked<2>();
-    for (size_t i = 0; i < cylinders_.size(); ++i) {
-      p(i, 0) = ChamberPressure(model_->get(), data_.get(), cylinders_[i], Chamber::kP);
-      p(i, 1) = ChamberPressure(model_->get(), data_.get(), cylinders_[i], Chamber::kN);
+    for (size_t i = 0; i < cylinders.size(); ++i) {
+      p(i, 0) = ChamberPressure(model_->get(), data_.get(), cylinders[i], Chamber::kP);
+      p(i, 1) = ChamberPressure(model_->get(), data_.get(), cylinders[i], Chamber::kN);
     }
     return out;
   }
 
-  const CylinderInfo& Find(const std::string& name) const {
-    for (const CylinderInfo& c : cylinders_) {
+  CylinderInfo Find(const std::string& name) const {
+    std::shared_lock lock(model_->lock);
+    for (const CylinderInfo& c : Cylinders(model_->get())) {
       if (c.name == name) return c;
     }
     throw InputError("the model " + model_->path + " has no cylinder '" + name + "'");
@@ -73,7 +77,6 @@ class Simulation {
 
   ModelHandle model_;
   std::unique_ptr<mjData, void (*)(mjData*)> data_;
-  std::vector<CylinderInfo> cylinders_;
 
  private:
   static int Diverged(const mjData* d) { return d->warning[mjWARN_BADQACC].number + d->warning[mjWARN_BADQVEL].number; }

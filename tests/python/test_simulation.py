@@ -80,3 +80,13 @@ def test_set_pressure_is_absolute(rig):
     sim.set_pressure("cyl", "N", 3.5e5)
     assert sim.pressure("cyl", "N") == 3.5e5
     assert sim.act[1] == 3.5e5 - rig.get("cyl:p_atm")
+
+
+def test_pressures_follow_a_changed_p_atm(rig):
+    # the activations are p - p_atm: with p_atm set after the simulation was made, the same activation
+    # reads as the pressure above the new p_atm
+    sim = pneumatic.Simulation(rig)
+    sim.set_pressure("cyl", "N", 3e5)
+    rig.set("cyl:p_atm", 101325.0)
+    assert sim.pressure("cyl", "N") == (3e5 - 1e5) + 101325.0
+    assert sim.pressures()[0, 1] == (3e5 - 1e5) + 101325.0
