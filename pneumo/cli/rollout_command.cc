@@ -23,7 +23,6 @@
 #include "rendering/frames.h"
 #include "simulation/closed_loop.h"
 #include "simulation/controller_config.h"
-#include "simulation/paper_controllers.h"
 #include "simulation/parallel_for.h"
 #include "simulation/rollout.h"
 #include "simulation/rollout_summary.h"
@@ -110,43 +109,28 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
   if (!model) return Fail(error);
 
   ClosedLoopOptions base;
-  base.controller = options.controller;
   base.duration = options.duration;
   base.control_rate = options.control_rate;
   base.noise_pressure = options.noise_pressure;
   base.noise_position = options.noise_position;
   // the controller's configuration: --controller-config, else the one the model carries, else none
   // (the controller's defaults)
-  json config;
-  std::string config_source = options.controller_config_path;
-  bool configured = !config_source.empty();
-  if (configured) {
-    if (std::string e = ReadJsonFile(config_source, &config); !e.empty()) return Fail(e);
-  } else if (std::string e = ModelControllerConfig(model.get(), options.controller, &config, &config_source, &configured);
-             !e.empty()) {
-    return Fail(options.model_path + ": " + e);
-  } else if (configured) {
-    config_source = options.model_path + ": " + config_source;
-    std::fprintf(stderr, "pneumo rollout: %s configuration from %s (--controller-config replaces it)\n",
-                 options.controller.c_str(), config_source.c_str());
+  json config, controller;
+  if (!options.controller_config_path.empty()) {
+    if (std::string e = ReadJsonFile(options.controller_config_path, &config); !e.empty()) return Fail(e);
   }
-  if (options.controller == "pid" || options.controller == "none") {
-    if (configured) {
-      if (std::string e = ReadControllerConfig(config, config_source, &base); !e.empty()) return Fail(e);
-    }
-  } else if (std::string e = PaperController(options.controller, configured ? &config : nullptr,
-                                             configured ? config_source : options.controller, &base);
-             !e.empty()) {
+  if (std::string e = ConfigureController(
+          model.get(), options.model_path, options.controller,
+          options.controller_config_path.empty() ? nullptr : &config, options.controller_config_path, &base, &controller,
+          [](const std::string& line) {
+            std::fprintf(stderr, "pneumo rollout: %s (--controller-config replaces it)\n", line.c_str());
+          });
+      !e.empty()) {
     return Fail(e);
   }
-  const json controller = {{"name", options.controller},
-                           {"configuration", configured ? config_source : "the controller's defaults"}};
   std::optional<log::Log> reference;
   if (!options.reference_path.empty()) {
-    log::ReadOptions read;
-    for (const CylinderInfo& c : Cylinders(model.get())) read.cylinders.insert(c.name);
-    read.uniform_time = false;
-    log::ReadResult r = log::ReadLog(options.reference_path, read);
+    log::ReadResult r = ReadModelLog(model.get(), options.reference_path, false);
     if (!r.log) return Fail(r.error);
     reference = std::move(r.log);
     base.reference = &*reference;
@@ -305,9 +289,7 @@ int RunRollout(const std::string& model_path, const std::string& commands_path, 
 
   std::optional<pneumatic::log::Log> commands;
   if (!commands_path.empty()) {
-    pneumatic::log::ReadOptions read;
-    for (const auto& c : pneumatic::Cylinders(m)) read.cylinders.insert(c.name);
-    pneumatic::log::ReadResult r = pneumatic::log::ReadLog(commands_path, read);
+    pneumatic::log::ReadResult r = pneumatic::ReadModelLog(m, commands_path, true);
     if (!r.log) return Fail(r.error);
     commands = std::move(r.log);
   }

@@ -1,5 +1,7 @@
 #include "simulation/controller_config.h"
 
+#include "simulation/paper_controllers.h"
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -90,6 +92,36 @@ std::string ReadControllerConfig(const std::string& path, ClosedLoopOptions* opt
   json config;
   if (std::string e = ReadJsonFile(path, &config); !e.empty()) return e;
   return ReadControllerConfig(config, path, options);
+}
+
+std::string ConfigureController(const mjModel* m, const std::string& model_path, const std::string& controller,
+                                const json* config, const std::string& config_source, ClosedLoopOptions* options,
+                                json* summary_controller, const std::function<void(const std::string&)>& say) {
+  options->controller = controller;
+  json carried;
+  std::string source = config_source;
+  bool configured = config != nullptr;
+  if (!configured) {
+    if (std::string e = ModelControllerConfig(m, controller, &carried, &source, &configured); !e.empty()) {
+      return model_path + ": " + e;
+    }
+    if (configured) {
+      config = &carried;
+      source = model_path + ": " + source;
+      if (say) say(controller + " configuration from " + source);
+    }
+  }
+  if (controller == "pid" || controller == "none") {
+    if (configured) {
+      if (std::string e = ReadControllerConfig(*config, source, options); !e.empty()) return e;
+    }
+  } else if (std::string e = PaperController(controller, configured ? config : nullptr, configured ? source : controller,
+                                             options);
+             !e.empty()) {
+    return e;
+  }
+  *summary_controller = {{"name", controller}, {"configuration", configured ? source : "the controller's defaults"}};
+  return "";
 }
 
 }  // namespace pneumatic

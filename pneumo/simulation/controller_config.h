@@ -3,6 +3,7 @@
 #ifndef PNEUMATIC_CONTROLLER_CONFIG_H_
 #define PNEUMATIC_CONTROLLER_CONFIG_H_
 
+#include <functional>
 #include <string>
 
 #include <mujoco/mujoco.h>
@@ -34,6 +35,16 @@ std::string ModelControllerConfig(const mjModel* m, const std::string& controlle
 std::string ReadControllerConfig(const nlohmann::json& config, const std::string& where, ClosedLoopOptions* options);
 // the same from the JSON file at `path`
 std::string ReadControllerConfig(const std::string& path, ClosedLoopOptions* options);
+
+// The controller of a closed-loop run on m by name ("pid", "none" or one of PaperController's), configured
+// from `config` when given (`config_source` names it: a file, an argument), else from the configuration m
+// carries for it (`model_path` names m in messages; `say` hears where it came from), else from the
+// controller's defaults: sets options->controller and the gains or the factory, and *summary_controller
+// to the {"name", "configuration"} of the run's summary (SummaryJson). "" or the error.
+std::string ConfigureController(const mjModel* m, const std::string& model_path, const std::string& controller,
+                                const nlohmann::json* config, const std::string& config_source,
+                                ClosedLoopOptions* options, nlohmann::json* summary_controller,
+                                const std::function<void(const std::string&)>& say);
 
 }  // namespace pneumatic
 

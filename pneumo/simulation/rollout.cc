@@ -33,6 +33,13 @@ std::string AttachedCylinders(const mjModel* m, std::vector<CylinderInfo>* cylin
   return "the model has no pneumatic cylinder (no <text name=\"pneumatic:...\">)";
 }
 
+log::ReadResult ReadModelLog(const mjModel* m, const std::string& path, bool uniform_time) {
+  log::ReadOptions read;
+  for (const CylinderInfo& c : Cylinders(m)) read.cylinders.insert(c.name);
+  read.uniform_time = uniform_time;
+  return log::ReadLog(path, read);
+}
+
 std::string CheckMeasurements(const mjModel* m, const log::Log& log) {
   std::vector<CylinderInfo> cylinders;
   if (std::string problem = AttachedCylinders(m, &cylinders); !problem.empty()) return problem;

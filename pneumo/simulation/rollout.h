@@ -55,6 +55,10 @@ RolloutResult Rollout(const mjModel* m, const log::Log* commands, const RolloutO
 // reads a log of m checks it, every row (the replay itself reads only the first row's state).
 std::string CheckMeasurements(const mjModel* m, const log::Log& log);
 
+// Reads the log file at `path` for m: every column must name a cylinder of m; `uniform_time` as in
+// log::ReadOptions (a command log's rows are evenly spaced, a reference's need not be).
+log::ReadResult ReadModelLog(const mjModel* m, const std::string& path, bool uniform_time);
+
 // The cylinders of an attached model; "" or why there are none to drive: the model has no
 // "pneumatic:" text, or has some but was not attached.
 std::string AttachedCylinders(const mjModel* m, std::vector<CylinderInfo>* cylinders);

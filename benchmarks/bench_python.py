@@ -1,0 +1,122 @@
+#!/usr/bin/python3
+"""The Python module's speed: steps per second of a Python loop over Simulation.step (1 and 10 steps
+per call) on rig C and the humanoid, against the same steps in one call; closed-loop rollouts per
+second from Python against `pneumo rollout` started as a process; rollouts on 1 and 2 Python threads
+(each rollout releases the GIL). Prints a Markdown table with the machine and the command.
+
+usage: PYTHONPATH=build/python benchmarks/bench_python.py [--steps 100000] [--rollouts 8] [--pneumo build/bin/pneumo]
+"""
+import argparse
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+
+import pneumatic
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+MODELS = os.path.join(HERE, "..", "models_mjcf")
+
+
+def machine():
+    cpu = platform.processor() or "unknown processor"
+    try:
+        with open("/proc/cpuinfo") as f:
+            cpu = next(line.split(":", 1)[1].strip() for line in f if line.startswith("model name"))
+    except (OSError, StopIteration):
+        pass
+    load = " (load average %.1f before the run)" % os.getloadavg()[0] if hasattr(os, "getloadavg") else ""
+    return "%s, %d cores, Python %s%s" % (cpu, os.cpu_count(), platform.python_version(), load)
+
+
+def steps_per_second(model, steps, per_call, repeats=3):
+    """Steps per second of `for _ in range(steps // per_call): sim.step(per_call)` from the reset state
+    (the valves at their reset commands), the best of `repeats` runs of the same steps."""
+    sim = pneumatic.Simulation(model)
+    best = 0
+    for _ in range(repeats):
+        sim.reset()
+        start = time.perf_counter()
+        for _ in range(steps // per_call):
+            sim.step(per_call)
+        best = max(best, steps / (time.perf_counter() - start))
+    return best
+
+
+def rollouts_per_second(run, count):
+    start = time.perf_counter()
+    for _ in range(count):
+        run()
+    return count / (time.perf_counter() - start)
+
+
+def threaded_rollouts_per_second(run, count, threads):
+    def worker(n):
+        for _ in range(n):
+            run()
+
+    start = time.perf_counter()
+    pool = [threading.Thread(target=worker, args=(count // threads,)) for _ in range(threads)]
+    for t in pool:
+        t.start()
+    for t in pool:
+        t.join()
+    return count / (time.perf_counter() - start)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--steps", type=int, default=100000, help="steps per stepping figure (the humanoid: a tenth)")
+    parser.add_argument("--rollouts", type=int, default=8, help="closed-loop rollouts per rollout figure (even)")
+    parser.add_argument("--pneumo", default=os.environ.get("PNEUMO", os.path.join(HERE, "..", "build", "bin", "pneumo")))
+    args = parser.parse_args()
+
+    machine_line = machine()
+    rows = []
+    for name, steps in (("rig_per_chamber.xml", args.steps), ("humanoid_pneumatic.xml", args.steps // 10)):
+        model = pneumatic.load(os.path.join(MODELS, name))
+        one = steps_per_second(model, steps, 1)
+        ten = steps_per_second(model, steps, 10)
+        whole = steps_per_second(model, steps, steps)
+        what = "`%s` (%g ms step), %d steps" % (name, 1000 * model.timestep, steps)
+        rows.append("| %s: steps/s, `sim.step()` in a Python loop | %.0f |" % (what, one))
+        rows.append("| %s: steps/s, `sim.step(10)` in a Python loop | %.0f |" % (what, ten))
+        rows.append("| %s: steps/s, `sim.step(%d)`: one call, the loop in C++ | %.0f |" % (what, steps, whole))
+        rows.append("| %s: Python's cost per `sim.step()` call | %.2f us |" % (what, 1e6 * (1 / one - 1 / whole)))
+
+    # closed-loop rollouts: 1 s of rig C under PID, the same from Python and from the command line
+    rig = os.path.join(MODELS, "rig_per_chamber.xml")
+    model = pneumatic.load(rig)
+    python_run = lambda: pneumatic.rollout(model, controller="pid", duration=1.0)  # noqa: E731
+    with tempfile.TemporaryDirectory() as folder:
+        out = os.path.join(folder, "run.csv")
+        cli_run = lambda: subprocess.run(  # noqa: E731
+            [args.pneumo, "rollout", rig, "--controller", "pid", "--duration", "1", "--out", out],
+            check=True, capture_output=True)
+        python_rate = rollouts_per_second(python_run, args.rollouts)
+        cli_rate = rollouts_per_second(cli_run, args.rollouts)
+    rows.append("| rig C, 1 s under PID: rollouts/s, `pneumatic.rollout` | %.1f |" % python_rate)
+    rows.append("| rig C, 1 s under PID: rollouts/s, `pneumo rollout` as a process | %.1f |" % cli_rate)
+
+    humanoid = pneumatic.load(os.path.join(MODELS, "humanoid_pneumatic.xml"))
+    heavy = lambda: pneumatic.rollout(humanoid, controller="pid", duration=0.5)  # noqa: E731
+    one_thread = threaded_rollouts_per_second(heavy, args.rollouts, 1)
+    two_threads = threaded_rollouts_per_second(heavy, args.rollouts, 2)
+    rows.append("| humanoid, 0.5 s under PID: rollouts/s on 1 Python thread | %.2f |" % one_thread)
+    rows.append("| humanoid, 0.5 s under PID: rollouts/s on 2 Python threads | %.2f (x%.2f) |"
+                % (two_threads, two_threads / one_thread))
+
+    print("machine: %s" % machine_line)
+    print("command: `PYTHONPATH=build/python %s`" % " ".join(["benchmarks/bench_python.py"] + sys.argv[1:]))
+    print()
+    print("| figure | value |")
+    print("|---|---|")
+    for row in rows:
+        print(row)
+
+
+if __name__ == "__main__":
+    main()
