@@ -23,6 +23,7 @@
 #include "rendering/frames.h"
 #include "simulation/closed_loop.h"
 #include "simulation/controller_config.h"
+#include "simulation/model_edits.h"
 #include "simulation/paper_controllers.h"
 #include "simulation/parallel_for.h"
 #include "simulation/rollout.h"
@@ -110,37 +111,27 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
   if (!model) return Fail(error);
 
   ClosedLoopOptions base;
-  base.controller = options.controller;
   base.duration = options.duration;
   base.control_rate = options.control_rate;
   base.noise_pressure = options.noise_pressure;
   base.noise_position = options.noise_position;
   // the controller's configuration: --controller-config, else the one the model carries, else none
   // (the controller's defaults)
-  json config;
-  std::string config_source = options.controller_config_path;
-  bool configured = !config_source.empty();
-  if (configured) {
-    if (std::string e = ReadJsonFile(config_source, &config); !e.empty()) return Fail(e);
-  } else if (std::string e = ModelControllerConfig(model.get(), options.controller, &config, &config_source, &configured);
-             !e.empty()) {
-    return Fail(options.model_path + ": " + e);
-  } else if (configured) {
-    config_source = options.model_path + ": " + config_source;
-    std::fprintf(stderr, "pneumo rollout: %s configuration from %s (--controller-config replaces it)\n",
-                 options.controller.c_str(), config_source.c_str());
+  json config, controller;
+  if (!options.controller_config_path.empty()) {
+    if (std::string e = ReadJsonFile(options.controller_config_path, &config); !e.empty()) return Fail(e);
   }
-  if (options.controller == "pid" || options.controller == "none") {
-    if (configured) {
-      if (std::string e = ReadControllerConfig(config, config_source, &base); !e.empty()) return Fail(e);
-    }
-  } else if (std::string e = PaperController(options.controller, configured ? &config : nullptr,
-                                             configured ? config_source : options.controller, &base);
-             !e.empty()) {
+  std::string carried;
+  if (std::string e = ConfigureController(model.get(), options.model_path, options.controller,
+                                          options.controller_config_path.empty() ? nullptr : &config,
+                                          options.controller_config_path, &base, &controller, &carried);
+      !e.empty()) {
     return Fail(e);
   }
-  const json controller = {{"name", options.controller},
-                           {"configuration", configured ? config_source : "the controller's defaults"}};
+  if (!carried.empty()) {
+    std::fprintf(stderr, "pneumo rollout: %s configuration from %s (--controller-config replaces it)\n",
+                 options.controller.c_str(), carried.c_str());
+  }
   std::optional<log::Log> reference;
   if (!options.reference_path.empty()) {
     log::ReadOptions read;
@@ -205,13 +196,10 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
     std::string e;
     if (run.variation) {
       for (const auto& [name, value] : run.variation->parameters) {
-        const size_t colon = name.find(':');
-        if (colon == std::string::npos) {
-          e = "variation '" + run.variation->name + "': '" + name + "' is not <cylinder>:<key>";
-        } else if (!SetParameter(copy.get(), name.substr(0, colon), name.substr(colon + 1), value, &e)) {
+        if (e = SetModelValue(copy.get(), name, value); !e.empty()) {
           e = "variation '" + run.variation->name + "': " + e;
+          break;
         }
-        if (!e.empty()) break;
       }
     }
     if (e.empty()) {

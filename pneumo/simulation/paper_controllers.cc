@@ -7,6 +7,7 @@
 #include "karpenko_pid.h"
 #include "laib_smc.h"
 #include "position_stiffness.h"
+#include "simulation/controller_config.h"
 #include "sliding_mode.h"
 
 namespace pneumatic {
@@ -68,6 +69,36 @@ std::string PaperController(const std::string& name, const json* config, const s
   } else {
     return "unknown controller '" + name + "'";
   }
+  return "";
+}
+
+std::string ConfigureController(const mjModel* m, const std::string& model_path, const std::string& name,
+                                const json* config, const std::string& config_source, ClosedLoopOptions* out,
+                                json* description, std::string* carried) {
+  carried->clear();
+  out->controller = name;
+  json own;
+  std::string source = config_source;
+  bool configured = config != nullptr;
+  if (!configured) {
+    if (std::string e = ModelControllerConfig(m, name, &own, &source, &configured); !e.empty()) {
+      return model_path + ": " + e;
+    }
+    if (configured) {
+      source = model_path + ": " + source;
+      *carried = source;
+      config = &own;
+    }
+  }
+  if (name == "pid" || name == "none") {
+    if (configured) {
+      if (std::string e = ReadControllerConfig(*config, source, out); !e.empty()) return e;
+    }
+  } else if (std::string e = PaperController(name, configured ? config : nullptr, configured ? source : name, out);
+             !e.empty()) {
+    return e;
+  }
+  *description = {{"name", name}, {"configuration", configured ? source : "the controller's defaults"}};
   return "";
 }
 

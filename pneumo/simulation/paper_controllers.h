@@ -19,6 +19,15 @@ namespace pneumatic {
 std::string PaperController(const std::string& name, const nlohmann::json* config, const std::string& where,
                             ClosedLoopOptions* out);
 
+// Any closed-loop controller by name (pid, none, or one of the papers') configured into *out: from
+// `config` (read from `config_source`) when given, else from the configuration model m carries
+// (ModelControllerConfig; `model_path` names it in messages), else the controller's defaults.
+// *description is the summary's {"name", "configuration": where it came from}; *carried the model's
+// element when the configuration came from the model, else "". "" or the error, naming the key.
+std::string ConfigureController(const mjModel* m, const std::string& model_path, const std::string& name,
+                                const nlohmann::json* config, const std::string& config_source, ClosedLoopOptions* out,
+                                nlohmann::json* description, std::string* carried);
+
 }  // namespace pneumatic
 
 #endif  // PNEUMATIC_PAPER_CONTROLLERS_H_
