@@ -75,9 +75,10 @@ std::string SetModelValue(mjModel* m, const std::string& key, double value) {
     mjData* d = mj_makeData(m);
     mj_forward(m, d);
     mj_deleteData(d);
-    if (Cylinders(m).size() != cylinders) {
+    if (!IsAttached(m) || Cylinders(m).size() != cylinders) {
       for (int i = 0; i < dofs; ++i) field[first + i] = before[i];
-      return "'" + key + "': " + Number(value) + " leaves the model unsteppable (below a cylinder's coulomb_friction?)";
+      return "'" + key + "': " + Number(value) +
+             " leaves the model unsteppable (MuJoCo's warning says why: below a cylinder's coulomb_friction?)";
     }
   }
   return "";
