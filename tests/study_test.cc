@@ -124,6 +124,14 @@ TEST_F(StudyTest, PlanErrorsNameTheFileAndTheKey) {
   }
   study::Plan plan;
   EXPECT_EQ(study::ReadPlan(Path("missing.json"), &plan), Path("missing.json") + ": cannot read");
+  // the controller's keys are checked when the study opens, before any point runs
+  std::string text = RigPlan();
+  text.replace(text.find("\"seed\": 1,"), 10, "\"controller_config\": {\"kq\": 1},");
+  WriteText(Path("plan.json"), text);
+  std::string err;
+  EXPECT_EQ(Pneumo("study " + Quote(Path("plan.json")) + " --out " + Quote(Path("out")), &err), 1);
+  EXPECT_THAT(err, HasSubstr(Path("plan.json") + ": the plan's what.controller_config: unknown key 'kq'"));
+  EXPECT_FALSE(fs::exists(Path("out")));
 }
 
 // the grid's points, the last key fastest, with every random draw each; draws are the same bits on

@@ -110,19 +110,21 @@ std::string ReadWhat(const Reader& r, const ojson& what, Plan* plan) {
     if (what.contains("controller_config")) {
       const ojson& c = what["controller_config"];
       if (c.is_string()) {
-        if (std::string e = r.Path(what, "what", "controller_config", &plan->controller_config_source); !e.empty()) return e;
-        std::ifstream in(plan->controller_config_source);
-        if (!in) return r.Error("what.controller_config", plan->controller_config_source + ": cannot read");
+        std::string file;
+        if (std::string e = r.Path(what, "what", "controller_config", &file); !e.empty()) return e;
+        plan->controller_config_source = c.get<std::string>();
+        std::ifstream in(file);
+        if (!in) return r.Error("what.controller_config", file + ": cannot read");
         std::stringstream text;
         text << in.rdbuf();
         try {
           plan->controller_config = nlohmann::json::parse(text.str());
         } catch (const nlohmann::json::exception& e) {
-          return r.Error("what.controller_config", plan->controller_config_source + ": " + e.what());
+          return r.Error("what.controller_config", file + ": " + e.what());
         }
       } else if (c.is_object()) {
         plan->controller_config = nlohmann::json::parse(c.dump());
-        plan->controller_config_source = plan->path + ": what.controller_config";
+        plan->controller_config_source = "the plan's what.controller_config";
       } else {
         return r.Error("what.controller_config", "expected an object of the controller's keys, or a JSON file's path");
       }
@@ -290,7 +292,8 @@ std::string ReadPlan(const std::string& path, Plan* plan) {
   const ojson& d = plan->document;
   if (!d.is_object()) return r.Error("", "expected a JSON object with \"model\", \"what\" and \"points\"");
   if (std::string e = r.Known(d, "", {"model", "what", "points", "scheduler", "description"}); !e.empty()) return e;
-  if (std::string e = r.Path(d, "", "model", &plan->model, true); !e.empty()) return e;
+  if (std::string e = r.Text(d, "", "model", &plan->model_label, true); !e.empty()) return e;
+  plan->model = r.Resolve(plan->model_label);
   if (!d.contains("what")) return r.Error("what", "required");
   if (std::string e = ReadWhat(r, d["what"], plan); !e.empty()) return e;
   if (!d.contains("points")) return r.Error("points", "required");

@@ -30,11 +30,13 @@ struct Plan {
   std::string text;     // its bytes (copied into the study's folder)
   nlohmann::ordered_json document;  // parsed; its "scheduler" aside, what makes two plans the same
   std::string model;    // resolved path
+  std::string model_label;  // as the plan names it, for the files a point writes (the same bytes however the
+                            // plan's own path is spelled)
   std::string kind;     // "rollout", "identify" or "diagnose"
   // rollout
   std::string controller = "pid";
   nlohmann::json controller_config;  // null: the model's own or the defaults
-  std::string controller_config_source;
+  std::string controller_config_source;  // where it came from, as the summaries name it
   std::string reference;
   double duration = 0, control_rate = 100, noise_pressure = 0, noise_position = 0;
   std::uint64_t seed = 1;

@@ -106,11 +106,11 @@ std::unique_ptr<Study> Study::Open(const std::string& plan_path, const std::stri
     o.noise_position = plan.noise_position;
     o.seed = plan.seed;
     std::string carried;
-    if (std::string e = ConfigureController(s->model_, plan.model, plan.controller,
+    if (std::string e = ConfigureController(s->model_, plan.model_label, plan.controller,
                                             plan.controller_config.is_null() ? nullptr : &plan.controller_config,
                                             plan.controller_config_source, &o, &s->controller_, &carried);
         !e.empty()) {
-      return *error = plan.path + ": what.controller_config: " + e, nullptr;
+      return *error = plan.path + ": " + e, nullptr;
     }
     if (!plan.reference.empty()) {
       log::ReadOptions read;
@@ -186,7 +186,7 @@ std::string Study::RunRollout(const Point& p, const std::string& dir, const std:
     return result.error;
   }
   const std::string run = "point " + std::to_string(p.index);
-  result.log->comments.insert(result.log->comments.begin(), "model: " + plan_.model);
+  result.log->comments.insert(result.log->comments.begin(), "model: " + plan_.model_label);
   result.log->comments.push_back("study " + run);
   if (std::string e = log::WriteLog(dir + "/rollout.csv", *result.log); !e.empty()) return e;
   // the summary without its wall-clock figures: a point's files are the same bytes on any machine
