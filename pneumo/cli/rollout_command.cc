@@ -394,7 +394,8 @@ Command AddRolloutCommand(CLI::App& app) {
   rollout->add_option("--noise-pressure", closed.noise_pressure, "pressure sensor noise seen and logged, Pa (std)");
   rollout->add_option("--noise-position", closed.noise_position, "position sensor noise seen and logged, m or rad (std)");
   rollout->add_option("--variations", closed.variations_path,
-                      "JSON [{\"name\": ..., \"set\": {\"cyl:key\": value}}]: one run per variation and seed");
+                      "JSON [{\"name\": ..., \"set\": {\"cyl:key\": value}}]: one run per variation and seed; keys "
+                      "<cylinder>:<key>, body:<name>:mass, joint:<name>:damping, joint:<name>:frictionloss");
   rollout->add_option("--summary", closed.summary_path,
                       "JSON summary: the controller and where its configuration came from, steps, real-time factor, "
                       "tracking errors, pressure ranges, warnings");
