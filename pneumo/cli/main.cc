@@ -7,6 +7,7 @@
 //   pneumo identify MODEL.xml LOG.csv --out PARAMS.json --heldout LOG2.csv   fit paper 000's model and physical parameters
 //   pneumo render MODEL.xml --out frame.png [--log LOG.csv --time T]   a picture, off screen (OSMesa)
 //   pneumo reproduce karpenko2006|hodgson2012|laib2021 [--out DIR]                  a paper's experiment rerun in simulation
+//   pneumo study PLAN.json --out DIR [--jobs N]                 a parameter study (docs/study.md)
 //   pneumo info MODEL.xml                                       cylinders and their signals
 //   pneumo params [--markdown]                                  the MJCF parameter table
 //
@@ -25,6 +26,7 @@
 #include "cli/render_command.h"
 #include "cli/reproduce_command.h"
 #include "cli/rollout_command.h"
+#include "cli/study_command.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"pneumo: pneumatic actuators for MuJoCo 2.2"};
@@ -36,6 +38,7 @@ int main(int argc, char** argv) {
   const std::vector<cli::Command> commands = {cli::AddRolloutCommand(app),   cli::AddGenerateCommand(app),
                                               cli::AddIdentifyCommand(app),  cli::AddRenderCommand(app),
                                               cli::AddReproduceCommand(app), cli::AddDiagnoseCommand(app),
+                                              cli::AddStudyCommand(app),
                                               cli::AddInfoCommand(app),      cli::AddParamsCommand(app)};
 
   CLI11_PARSE(app, argc, argv);

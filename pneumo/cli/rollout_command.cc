@@ -23,6 +23,7 @@
 #include "rendering/frames.h"
 #include "simulation/closed_loop.h"
 #include "simulation/controller_config.h"
+#include "simulation/model_edits.h"
 #include "simulation/parallel_for.h"
 #include "simulation/rollout.h"
 #include "simulation/rollout_summary.h"
@@ -189,13 +190,10 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
     std::string e;
     if (run.variation) {
       for (const auto& [name, value] : run.variation->parameters) {
-        const size_t colon = name.find(':');
-        if (colon == std::string::npos) {
-          e = "variation '" + run.variation->name + "': '" + name + "' is not <cylinder>:<key>";
-        } else if (!SetParameter(copy.get(), name.substr(0, colon), name.substr(colon + 1), value, &e)) {
+        if (e = SetModelValue(copy.get(), name, value); !e.empty()) {
           e = "variation '" + run.variation->name + "': " + e;
+          break;
         }
-        if (!e.empty()) break;
       }
     }
     if (e.empty()) {
@@ -388,7 +386,8 @@ Command AddRolloutCommand(CLI::App& app) {
   rollout->add_option("--noise-pressure", closed.noise_pressure, "pressure sensor noise seen and logged, Pa (std)");
   rollout->add_option("--noise-position", closed.noise_position, "position sensor noise seen and logged, m or rad (std)");
   rollout->add_option("--variations", closed.variations_path,
-                      "JSON [{\"name\": ..., \"set\": {\"cyl:key\": value}}]: one run per variation and seed");
+                      "JSON [{\"name\": ..., \"set\": {\"cyl:key\": value}}]: one run per variation and seed; keys "
+                      "<cylinder>:<key>, body:<name>:mass, joint:<name>:damping, joint:<name>:frictionloss");
   rollout->add_option("--summary", closed.summary_path,
                       "JSON summary: the controller and where its configuration came from, steps, real-time factor, "
                       "tracking errors, pressure ranges, warnings");

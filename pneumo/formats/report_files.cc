@@ -1,5 +1,7 @@
 #include "formats/report_files.h"
 
+#include <sys/wait.h>
+
 #include <cstdlib>
 
 #include "formats/output_file.h"
@@ -14,13 +16,27 @@ std::string Quote(const std::string& text) {
   return quoted + "'";
 }
 
+// the shell command running scripts/<script> with the arguments
+std::string ScriptCommand(const std::string& script, const std::vector<std::string>& arguments) {
+  std::string command = "/usr/bin/python3 " + Quote(std::string(PNEUMATIC_SCRIPTS_DIR) + "/" + script);
+  for (const std::string& argument : arguments) command += " " + Quote(argument);
+  return command;
+}
+
 }  // namespace
 
 std::string RunPlotScript(const std::string& script, const std::vector<std::string>& arguments) {
-  std::string command = "/usr/bin/python3 " + Quote(std::string(PNEUMATIC_SCRIPTS_DIR) + "/" + script);
-  for (const std::string& argument : arguments) command += " " + Quote(argument);
+  const std::string command = ScriptCommand(script, arguments);
   if (std::system(command.c_str()) != 0) return "the plot failed (" + command + ")";
   return "";
+}
+
+int RunScript(const std::string& script, const std::vector<std::string>& arguments) {
+  const int status = std::system(ScriptCommand(script, arguments).c_str());
+  if (status == -1) return -1;
+  if (WIFEXITED(status)) return WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) return 128 + WTERMSIG(status);
+  return -1;
 }
 
 std::string WriteReportAndPlots(const std::string& out_dir, const std::string& name, const nlohmann::json& report) {

@@ -15,6 +15,10 @@ namespace pneumatic {
 // "" or the failing command.
 std::string RunPlotScript(const std::string& script, const std::vector<std::string>& arguments);
 
+// The same for any of the project's scripts (scripts/<script>), its exit status returned: the
+// status it exited with, 128 + the signal that ended it, or -1 if it could not be started.
+int RunScript(const std::string& script, const std::vector<std::string>& arguments);
+
 // Writes OUT_DIR/<name>.json, then runs scripts/plot_<name>.py OUT_DIR. "" or the error.
 std::string WriteReportAndPlots(const std::string& out_dir, const std::string& name, const nlohmann::json& report);
 
