@@ -227,14 +227,17 @@ void PrintConfusion(const std::map<std::string, std::map<std::string, int>>& con
   }
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+// the command line's options (see the usage at the top)
+struct Arguments {
   std::string only_case, only_rig;
   long limit = -1;
   double timeout = 300;
   double durations[3] = {ref::kDefaultDurations[0], ref::kDefaultDurations[1], ref::kDefaultDurations[2]};
   bool verbose = false;
+};
+
+// argv into *args: 0, or the exit code after printing why not
+int ParseArguments(int argc, char** argv, Arguments* args) {
   auto number = [&](int* i, const char* option, double* out) {
     char* end = nullptr;
     const char* text = *i + 1 < argc ? argv[++*i] : "";
@@ -248,70 +251,96 @@ int main(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     double value = 0;
     if (!std::strcmp(argv[i], "--case") && i + 1 < argc) {
-      only_case = argv[++i];
+      args->only_case = argv[++i];
     } else if (!std::strcmp(argv[i], "--rig") && i + 1 < argc) {
-      only_rig = argv[++i];
-      if (only_rig != "A" && only_rig != "B" && only_rig != "C") {
-        std::fprintf(stderr, "--rig: expected A, B or C, got '%s'\n", only_rig.c_str());
+      args->only_rig = argv[++i];
+      if (args->only_rig != "A" && args->only_rig != "B" && args->only_rig != "C") {
+        std::fprintf(stderr, "--rig: expected A, B or C, got '%s'\n", args->only_rig.c_str());
         return 2;
       }
     } else if (!std::strcmp(argv[i], "--limit")) {
       if (!number(&i, "--limit", &value)) return 2;
-      limit = static_cast<long>(value);
+      args->limit = static_cast<long>(value);
     } else if (!std::strcmp(argv[i], "--timeout")) {
-      if (!number(&i, "--timeout", &timeout)) return 2;
+      if (!number(&i, "--timeout", &args->timeout)) return 2;
     } else if (!std::strcmp(argv[i], "--durations")) {
-      for (double& d : durations) {
+      for (double& d : args->durations) {
         if (!number(&i, "--durations", &d)) return 2;
       }
     } else if (!std::strcmp(argv[i], "--verbose")) {
-      verbose = true;
+      args->verbose = true;
     } else {
       std::fprintf(stderr, "bench_diagnose_suite: unknown argument '%s' (see the usage at the top of bench_diagnose_suite.cc)\n",
                    argv[i]);
       return 2;
     }
   }
-  pneumatic::benchmarks::PrintMachine(PNEUMATIC_BUILD_TYPE);
+  return 0;
+}
+
+// the suite's cases that --case, --rig and --limit leave
+std::vector<ref::SuiteCase> SelectCases(const Arguments& args) {
   std::vector<ref::SuiteCase> cases;
   for (const ref::SuiteCase& c : ref::SuiteCases()) {
-    if (!only_case.empty() && c.id.find(only_case) == std::string::npos) continue;
-    if (!only_rig.empty() && only_rig != ref::RigLetter(c.rig)) continue;
-    if (limit >= 0 && static_cast<long>(cases.size()) >= limit) break;
+    if (!args.only_case.empty() && c.id.find(args.only_case) == std::string::npos) continue;
+    if (!args.only_rig.empty() && args.only_rig != ref::RigLetter(c.rig)) continue;
+    if (args.limit >= 0 && static_cast<long>(cases.size()) >= args.limit) break;
     cases.push_back(c);
   }
-  std::printf("%zu cases; logs of %.0f / %.0f / %.0f s (train / selection / test); time limit %.0f s per case\n", cases.size(),
-              durations[0], durations[1], durations[2], timeout);
-  const auto start = std::chrono::steady_clock::now();
+  return cases;
+}
+
+// the verdicts so far: truths against verdicts, the test-log shrinks of the in-library cases named
+// right, counts
+struct Tally {
   std::map<std::string, std::map<std::string, int>> confusion;
   std::vector<double> shrinks;
   int right = 0, clean = 0, named_on_clean = 0;
+};
+
+// one case run in its own process, its line printed and its verdict tallied
+void RunAndTally(const ref::SuiteCase& c, const Arguments& args, Tally* tally) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const Outcome o = RunCaseIsolated(c, args.durations, args.verbose, args.timeout);
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const bool ok = o.verdict == c.truth && (c.truth != "unexplained" || o.effects.empty());
+  tally->right += ok;
+  if (c.truth == "none") ++tally->clean, tally->named_on_clean += IsLibraryEffect(o.verdict);
+  const double shrink = 100 * (o.gap_before - o.gap_after) / o.gap_before;
+  if (ok && IsLibraryEffect(c.truth) && std::isfinite(shrink)) tally->shrinks.push_back(shrink);
+  tally->confusion[c.truth][o.verdict == "timeout" ? "failed" : o.verdict]++;
+  std::string verdict = o.verdict;
+  if (!o.effects.empty() && o.effects != o.verdict) verdict += " (" + o.effects + ")";
+  std::printf("%-24s %s %4.0f Hz noise %.2f  truth %-14s verdict %-28s %-5s test gap %.4f -> %.4f (%6.1f %%)  %6.1f s%s%s\n",
+              c.id.c_str(), ref::RigLetter(c.rig), c.rate, c.noise, c.truth.c_str(), verdict.c_str(), ok ? "right" : "WRONG",
+              o.gap_before, o.gap_after, shrink, seconds, o.error.empty() ? "" : "  ", o.error.c_str());
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Arguments args;
+  if (int status = ParseArguments(argc, argv, &args); status != 0) return status;
+  pneumatic::benchmarks::PrintMachine(PNEUMATIC_BUILD_TYPE);
+  const std::vector<ref::SuiteCase> cases = SelectCases(args);
+  const double* durations = args.durations;
+  std::printf("%zu cases; logs of %.0f / %.0f / %.0f s (train / selection / test); time limit %.0f s per case\n", cases.size(),
+              durations[0], durations[1], durations[2], args.timeout);
+  const auto start = std::chrono::steady_clock::now();
+  Tally tally;
   for (size_t i = 0; i < cases.size(); ++i) {
     const ref::SuiteCase& c = cases[i];
     std::fprintf(stderr, "[%zu/%zu] %s (%s, %s)\n", i + 1, cases.size(), c.id.c_str(), c.truth.c_str(), c.description.c_str());
-    const auto t0 = std::chrono::steady_clock::now();
-    const Outcome o = RunCaseIsolated(c, durations, verbose, timeout);
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    const bool ok = o.verdict == c.truth && (c.truth != "unexplained" || o.effects.empty());
-    right += ok;
-    if (c.truth == "none") ++clean, named_on_clean += IsLibraryEffect(o.verdict);
-    const double shrink = 100 * (o.gap_before - o.gap_after) / o.gap_before;
-    if (ok && IsLibraryEffect(c.truth) && std::isfinite(shrink)) shrinks.push_back(shrink);
-    confusion[c.truth][o.verdict == "timeout" ? "failed" : o.verdict]++;
-    std::string verdict = o.verdict;
-    if (!o.effects.empty() && o.effects != o.verdict) verdict += " (" + o.effects + ")";
-    std::printf("%-24s %s %4.0f Hz noise %.2f  truth %-14s verdict %-28s %-5s test gap %.4f -> %.4f (%6.1f %%)  %6.1f s%s%s\n",
-                c.id.c_str(), ref::RigLetter(c.rig), c.rate, c.noise, c.truth.c_str(), verdict.c_str(), ok ? "right" : "WRONG",
-                o.gap_before, o.gap_after, shrink, seconds, o.error.empty() ? "" : "  ", o.error.c_str());
-    std::fflush(stdout);
+    RunAndTally(c, args, &tally);
   }
-  PrintConfusion(confusion);
+  PrintConfusion(tally.confusion);
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   const int n = static_cast<int>(cases.size());
-  std::printf("\nright: %d of %d (%.1f %%; target >= 90 %%)\n", right, n, n ? 100.0 * right / n : 0.0);
-  std::printf("library effects named on parameters-only logs: %d of %d (target 0)\n", named_on_clean, clean);
+  std::printf("\nright: %d of %d (%.1f %%; target >= 90 %%)\n", tally.right, n, n ? 100.0 * tally.right / n : 0.0);
+  std::printf("library effects named on parameters-only logs: %d of %d (target 0)\n", tally.named_on_clean, tally.clean);
   std::printf("median test-log shrink of the in-library cases named right: %.1f %% over %zu cases (target >= 60 %%)\n",
-              Median(shrinks), shrinks.size());
+              Median(tally.shrinks), tally.shrinks.size());
   std::printf("total time: %.0f s\n", total);
   return 0;
 }

@@ -102,6 +102,159 @@ class ProgressBar {
   std::chrono::steady_clock::time_point last_{};
 };
 
+// the controller's configuration: --controller-config, else the one the model carries, else none
+// (the controller's defaults), read into *base (the library's ConfigureController); *controller
+// names it and its source for the summaries
+std::string SetUpController(const mjModel* model, const ClosedLoopCommandOptions& options, ClosedLoopOptions* base,
+                            json* controller) {
+  json config;
+  if (!options.controller_config_path.empty()) {
+    if (std::string e = ReadJsonFile(options.controller_config_path, &config); !e.empty()) return e;
+  }
+  return ConfigureController(model, options.model_path, options.controller,
+                             options.controller_config_path.empty() ? nullptr : &config,
+                             options.controller_config_path, base, controller, [](const std::string& line) {
+                               std::fprintf(stderr, "pneumo rollout: %s (--controller-config replaces it)\n",
+                                            line.c_str());
+                             });
+}
+
+// the --reference log into *reference (base->reference points to it), and without --duration the
+// run's length from its span
+std::string ReadReference(const mjModel* model, const ClosedLoopCommandOptions& options,
+                          std::optional<log::Log>* reference, ClosedLoopOptions* base) {
+  if (!options.reference_path.empty()) {
+    log::ReadResult r = ReadModelLog(model, options.reference_path, false);
+    if (!r.log) return r.error;
+    *reference = std::move(r.log);
+    base->reference = &**reference;
+  }
+  if (options.duration == 0) {
+    // holding a pose has no length of its own
+    if (!*reference) return "--controller needs --duration (or a --reference, whose span it then runs)";
+    base->duration = (*reference)->time.back();
+    char span[32];
+    std::snprintf(span, sizeof span, "%g", base->duration);
+    if (!(base->duration > 0)) {
+      return options.reference_path + ": its last row is at t = " + span + " s, not after the run's start at 0 s: give --duration";
+    }
+    std::fprintf(stderr, "pneumo rollout: running the reference's %s s (--duration sets another length)\n", span);
+  }
+  return "";
+}
+
+// the runs: every seed, with every variation if there are any; their output paths checked before any
+// runs rather than after
+std::string PlanRuns(const ClosedLoopCommandOptions& options, const std::vector<Variation>& variations,
+                     std::vector<Run>* runs) {
+  std::set<std::uint64_t> seeds;
+  for (std::uint64_t seed : options.seeds) {
+    if (!seeds.insert(seed).second) {
+      return "--seed " + std::to_string(seed) + " is given twice (the two runs would write the same files)";
+    }
+  }
+  for (std::uint64_t seed : options.seeds) {
+    if (variations.empty()) runs->push_back({"seed" + std::to_string(seed), seed, nullptr});
+    for (const Variation& v : variations) runs->push_back({v.name + "-seed" + std::to_string(seed), seed, &v});
+  }
+  if (runs->size() > 1 && (options.out_path.find("{run}") == std::string::npos ||
+                           (!options.summary_path.empty() && options.summary_path.find("{run}") == std::string::npos))) {
+    return std::to_string(runs->size()) + " runs: --out and --summary must contain {run}, e.g. --out 'runs/{run}.csv'";
+  }
+  if (!options.frames_dir.empty() && runs->size() > 1) return "--frames renders one run: give one seed and no variations";
+  for (const Run& run : *runs) {
+    if (std::string e = CheckOutputPath(Substitute(options.out_path, run.name), "a log file"); !e.empty()) return e;
+    if (!options.summary_path.empty()) {
+      if (std::string e = CheckOutputPath(Substitute(options.summary_path, run.name), "a JSON file"); !e.empty()) return e;
+    }
+  }
+  return "";
+}
+
+// a variation's parameters set on the run's copy of the model
+std::string ApplyVariation(const Variation& variation, mjModel* copy) {
+  for (const auto& [name, value] : variation.parameters) {
+    if (std::string e = SetModelValue(copy, name, value); !e.empty()) return "variation '" + variation.name + "': " + e;
+  }
+  return "";
+}
+
+// what the runs of one `pneumo rollout --controller` share; `report` orders their lines on stderr
+struct RunsContext {
+  const ClosedLoopCommandOptions& options;
+  const mjModel* model;
+  const ClosedLoopOptions& base;
+  const json& controller;
+  bool single;  // one run: its progress bar shown
+  ProgressBar bar;
+  std::mutex report;
+};
+
+// the run on `copy` (its frames written with --frames) into *result; an error of the frames
+std::string SimulateRun(RunsContext& context, const Run& run, const mjModel* copy, ClosedLoopResult* result) {
+  const ClosedLoopCommandOptions& options = context.options;
+  std::string e;
+  ClosedLoopOptions o = context.base;
+  o.seed = run.seed;
+  if (context.single) o.progress = [&](double f) { context.bar(f); };
+  std::unique_ptr<FrameWriter> frames;
+  if (!options.frames_dir.empty()) {
+    FrameOptions frame_options;
+    frame_options.dir = options.frames_dir;
+    frame_options.fps = options.fps;
+    frame_options.width = options.width, frame_options.height = options.height;
+    frame_options.camera = options.camera;
+    frames = FrameWriter::Create(copy, frame_options, &e);
+    if (frames) o.observer = [&](const mjData* d) { return frames->Offer(d); };
+  }
+  if (!e.empty()) return e;
+  *result = RunClosedLoop(copy, o);
+  if (result->log && frames) {
+    e = frames->Finish();
+    if (e.empty()) {
+      std::lock_guard<std::mutex> lock(context.report);
+      std::fprintf(stderr, "pneumo rollout: wrote %d frames to %s%s%s\n", frames->frames_written(),
+                   options.frames_dir.c_str(), frames->video_path().empty() ? "" : " and ", frames->video_path().c_str());
+    }
+  }
+  return e;
+}
+
+// the run's log and summary written, and its line on stderr
+std::string WriteRunOutputs(RunsContext& context, const Run& run, ClosedLoopResult* result) {
+  const ClosedLoopCommandOptions& options = context.options;
+  result->log->comments.insert(result->log->comments.begin(), "model: " + options.model_path);
+  result->log->comments.push_back("run " + run.name);
+  std::string e = log::WriteLog(Substitute(options.out_path, run.name), *result->log);
+  if (e.empty() && !options.summary_path.empty()) {
+    e = WriteOutput(Substitute(options.summary_path, run.name),
+                    SummaryJson(result->summary, run.name, context.controller).dump(2) + "\n", "a JSON file");
+  }
+  if (e.empty()) {
+    std::lock_guard<std::mutex> lock(context.report);
+    const std::vector<std::string>& warnings = result->summary.warnings;
+    const std::string more = warnings.size() > 1 ? " (and " + std::to_string(warnings.size() - 1) +
+                                                       " more warnings: --summary lists them)"
+                                                 : "";
+    std::fprintf(stderr, "pneumo rollout: %s: %.2f s simulated, real-time factor %.2f%s%s%s\n", run.name.c_str(),
+                 result->summary.simulated_s, result->summary.real_time_factor, warnings.empty() ? "" : "; warning: ",
+                 warnings.empty() ? "" : warnings.front().c_str(), more.c_str());
+  }
+  return e;
+}
+
+// one run on its own copy of the model: its error, or ""
+std::string DoRun(RunsContext& context, const Run& run) {
+  std::unique_ptr<mjModel, void (*)(mjModel*)> copy(mj_copyModel(nullptr, context.model), mj_deleteModel);
+  if (run.variation) {
+    if (std::string e = ApplyVariation(*run.variation, copy.get()); !e.empty()) return e;
+  }
+  ClosedLoopResult result;
+  if (std::string e = SimulateRun(context, run, copy.get(), &result); !e.empty()) return e;
+  if (!result.log) return result.error;
+  return WriteRunOutputs(context, run, &result);
+}
+
 }  // namespace
 
 int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
@@ -114,139 +267,27 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
   base.control_rate = options.control_rate;
   base.noise_pressure = options.noise_pressure;
   base.noise_position = options.noise_position;
-  // the controller's configuration: --controller-config, else the one the model carries, else none
-  // (the controller's defaults)
-  json config, controller;
-  if (!options.controller_config_path.empty()) {
-    if (std::string e = ReadJsonFile(options.controller_config_path, &config); !e.empty()) return Fail(e);
-  }
-  if (std::string e = ConfigureController(
-          model.get(), options.model_path, options.controller,
-          options.controller_config_path.empty() ? nullptr : &config, options.controller_config_path, &base, &controller,
-          [](const std::string& line) {
-            std::fprintf(stderr, "pneumo rollout: %s (--controller-config replaces it)\n", line.c_str());
-          });
-      !e.empty()) {
-    return Fail(e);
-  }
+  json controller;
+  if (std::string e = SetUpController(model.get(), options, &base, &controller); !e.empty()) return Fail(e);
   std::optional<log::Log> reference;
-  if (!options.reference_path.empty()) {
-    log::ReadResult r = ReadModelLog(model.get(), options.reference_path, false);
-    if (!r.log) return Fail(r.error);
-    reference = std::move(r.log);
-    base.reference = &*reference;
-  }
-  if (options.duration == 0) {
-    // holding a pose has no length of its own
-    if (!reference) return Fail("--controller needs --duration (or a --reference, whose span it then runs)");
-    base.duration = reference->time.back();
-    char span[32];
-    std::snprintf(span, sizeof span, "%g", base.duration);
-    if (!(base.duration > 0)) {
-      return Fail(options.reference_path + ": its last row is at t = " + span + " s, not after the run's start at 0 s: give --duration");
-    }
-    std::fprintf(stderr, "pneumo rollout: running the reference's %s s (--duration sets another length)\n", span);
-  }
+  if (std::string e = ReadReference(model.get(), options, &reference, &base); !e.empty()) return Fail(e);
   std::vector<Variation> variations;
   if (!options.variations_path.empty()) {
     if (std::string e = ReadVariations(options.variations_path, &variations); !e.empty()) return Fail(e);
   }
-
   std::vector<Run> runs;
-  std::set<std::uint64_t> seeds;
-  for (std::uint64_t seed : options.seeds) {
-    if (!seeds.insert(seed).second) {
-      return Fail("--seed " + std::to_string(seed) + " is given twice (the two runs would write the same files)");
-    }
-  }
-  for (std::uint64_t seed : options.seeds) {
-    if (variations.empty()) runs.push_back({"seed" + std::to_string(seed), seed, nullptr});
-    for (const Variation& v : variations) runs.push_back({v.name + "-seed" + std::to_string(seed), seed, &v});
-  }
-  if (runs.size() > 1 && (options.out_path.find("{run}") == std::string::npos ||
-                          (!options.summary_path.empty() && options.summary_path.find("{run}") == std::string::npos))) {
-    return Fail(std::to_string(runs.size()) + " runs: --out and --summary must contain {run}, e.g. --out 'runs/{run}.csv'");
-  }
+  if (std::string e = PlanRuns(options, variations, &runs); !e.empty()) return Fail(e);
 
-  if (!options.frames_dir.empty() && runs.size() > 1) {
-    return Fail("--frames renders one run: give one seed and no variations");
-  }
-  // every run's outputs, checked before any runs rather than after
-  for (const Run& run : runs) {
-    if (std::string e = CheckOutputPath(Substitute(options.out_path, run.name), "a log file"); !e.empty()) return Fail(e);
-    if (!options.summary_path.empty()) {
-      if (std::string e = CheckOutputPath(Substitute(options.summary_path, run.name), "a JSON file"); !e.empty()) return Fail(e);
-    }
-  }
   // each run on its own copy of the model; workers take runs in order, outputs are per run
   size_t done = 0;  // runs finished (counted under `report`)
-  std::mutex report;
   std::vector<std::string> errors(runs.size());
-  const bool single = runs.size() == 1;
-  ProgressBar bar(base.duration);
+  RunsContext context{options, model.get(), base, controller, runs.size() == 1, ProgressBar(base.duration), {}};
   ParallelFor(runs.size(), options.jobs, [&](size_t i) {
     const Run& run = runs[i];
-    std::unique_ptr<mjModel, void (*)(mjModel*)> copy(mj_copyModel(nullptr, model.get()), mj_deleteModel);
-    std::string e;
-    if (run.variation) {
-      for (const auto& [name, value] : run.variation->parameters) {
-        if (e = SetModelValue(copy.get(), name, value); !e.empty()) {
-          e = "variation '" + run.variation->name + "': " + e;
-          break;
-        }
-      }
-    }
-    if (e.empty()) {
-      ClosedLoopOptions o = base;
-      o.seed = run.seed;
-      if (single) o.progress = [&](double f) { bar(f); };
-      std::unique_ptr<FrameWriter> frames;
-      if (!options.frames_dir.empty()) {
-        FrameOptions frame_options;
-        frame_options.dir = options.frames_dir;
-        frame_options.fps = options.fps;
-        frame_options.width = options.width, frame_options.height = options.height;
-        frame_options.camera = options.camera;
-        frames = FrameWriter::Create(copy.get(), frame_options, &e);
-        if (frames) o.observer = [&](const mjData* d) { return frames->Offer(d); };
-      }
-      ClosedLoopResult result = e.empty() ? RunClosedLoop(copy.get(), o) : ClosedLoopResult{};
-      if (e.empty() && result.log && frames) {
-        e = frames->Finish();
-        if (e.empty()) {
-          std::lock_guard<std::mutex> lock(report);
-          std::fprintf(stderr, "pneumo rollout: wrote %d frames to %s%s%s\n", frames->frames_written(),
-                       options.frames_dir.c_str(), frames->video_path().empty() ? "" : " and ",
-                       frames->video_path().c_str());
-        }
-      }
-      if (!e.empty()) {
-        // nothing more to do for this run
-      } else if (!result.log) {
-        e = result.error;
-      } else {
-        result.log->comments.insert(result.log->comments.begin(), "model: " + options.model_path);
-        result.log->comments.push_back("run " + run.name);
-        e = log::WriteLog(Substitute(options.out_path, run.name), *result.log);
-        if (e.empty() && !options.summary_path.empty()) {
-          e = WriteOutput(Substitute(options.summary_path, run.name), SummaryJson(result.summary, run.name, controller).dump(2) + "\n",
-                          "a JSON file");
-        }
-        if (e.empty()) {
-          std::lock_guard<std::mutex> lock(report);
-          const std::vector<std::string>& warnings = result.summary.warnings;
-          const std::string more = warnings.size() > 1 ? " (and " + std::to_string(warnings.size() - 1) +
-                                                             " more warnings: --summary lists them)"
-                                                       : "";
-          std::fprintf(stderr, "pneumo rollout: %s: %.2f s simulated, real-time factor %.2f%s%s%s\n", run.name.c_str(),
-                       result.summary.simulated_s, result.summary.real_time_factor, warnings.empty() ? "" : "; warning: ",
-                       warnings.empty() ? "" : warnings.front().c_str(), more.c_str());
-        }
-      }
-    }
+    const std::string e = DoRun(context, run);
     errors[i] = e.empty() ? "" : run.name + ": " + e;
-    if (!single) {
-      std::lock_guard<std::mutex> lock(report);
+    if (!context.single) {
+      std::lock_guard<std::mutex> lock(context.report);
       std::fprintf(stderr, "pneumo rollout: %zu of %zu runs done\n", ++done, runs.size());
     }
   });

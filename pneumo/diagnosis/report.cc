@@ -342,10 +342,8 @@ void NoiseFloorSection(const dg::Diagnosis& d, std::ostringstream& h) {
   h << "</table>\n";
 }
 
-std::string Html(const dg::Diagnosis& d, const DiagnoseLogOptions& o) {
-  std::ostringstream h;
-  // what is left comes first where it is the answer
-  const bool left_first = d.verdict == "unexplained" || d.unexplained.present;
+// the page's head (title, style) and its first lines: the model and the logs
+void Head(const dg::Diagnosis& d, const DiagnoseLogOptions& o, std::ostringstream& h) {
   h << "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>pneumo diagnose: " << Escape(d.verdict)
     << "</title>\n<style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}"
        "table{border-collapse:collapse;margin:1em 0}td,th{border:1px solid #ccc;padding:4px 8px;text-align:right}"
@@ -358,25 +356,29 @@ std::string Html(const dg::Diagnosis& d, const DiagnoseLogOptions& o) {
        ".yes{color:#167a16;font-weight:bold}.failed{color:#b00}.rejected{color:#a05a00}td.text{text-align:left}</style></head><body>\n";
   h << "<h1>Sim-to-real diagnosis</h1>\n<p>Model <code>" << Escape(o.model_path) << "</code>; " << Escape(d.split) << " ("
     << d.train_rows << " training rows, " << d.heldout_rows << " held-out rows; " << Format("%.1f", d.seconds) << " s).</p>\n";
-  VerdictBox(d, o, h);
+}
+
+// links to the sections, in their order on the page
+void Navigation(const dg::Diagnosis& d, bool left_first, std::ostringstream& h) {
   h << "<nav>Sections: " << (left_first ? "<a href=\"#unexplained\">what is left unexplained</a> &middot; " : "")
     << (d.parameters.empty() ? "" : "<a href=\"#effect\">fitted effect</a> &middot; ")
     << "<a href=\"#calibration\">calibration</a> &middot; <a href=\"#floor\">noise floor</a> &middot; <a href=\"#signals\">signals</a> "
        "&middot; <a href=\"#where\">where the gap lies</a> &middot; "
     << (left_first ? "" : "<a href=\"#unexplained\">what is left</a> &middot; ") << "<a href=\"#rounds\">candidates</a> &middot; "
     << "<a href=\"#whiteness\">residual whiteness</a></nav>\n";
-  if (left_first) UnexplainedSection(d, o, h);
-  if (!d.parameters.empty()) {
-    h << "<h2 id=\"effect\">Fitted effect parameters</h2><table><tr><th>parameter</th><th>value</th><th>standard error</th><th>unit</th>"
-         "<th>note</th></tr>\n";
-    for (const dg::ParameterResult& p : d.parameters) {
-      h << "<tr><td>" << Escape(p.name) << "</td><td>" << Format("%.4g", p.value) << "</td><td>" << Format("%.2g", p.standard_error)
-        << "</td><td>" << Escape(p.unit) << "</td><td class=\"text warn\">" << Escape(p.poorly_determined) << "</td></tr>\n";
-    }
-    h << "</table>\n";
+}
+
+void FittedEffectSection(const dg::Diagnosis& d, std::ostringstream& h) {
+  h << "<h2 id=\"effect\">Fitted effect parameters</h2><table><tr><th>parameter</th><th>value</th><th>standard error</th><th>unit</th>"
+       "<th>note</th></tr>\n";
+  for (const dg::ParameterResult& p : d.parameters) {
+    h << "<tr><td>" << Escape(p.name) << "</td><td>" << Format("%.4g", p.value) << "</td><td>" << Format("%.2g", p.standard_error)
+      << "</td><td>" << Escape(p.unit) << "</td><td class=\"text warn\">" << Escape(p.poorly_determined) << "</td></tr>\n";
   }
-  CalibrationSection(d, h);
-  NoiseFloorSection(d, h);
+  h << "</table>\n";
+}
+
+void SignalsSection(const dg::Diagnosis& d, const DiagnoseLogOptions& o, std::ostringstream& h) {
   h << "<h2 id=\"signals\">Measured and simulated, before and after</h2>\n<p>The gap is the normalised RMS of short-horizon predictions ("
     << Format("%.3g", o.diagnose.horizon_s)
     << " s windows restarted from the measured state) over the pressure and position signals, each divided by its "
@@ -388,6 +390,9 @@ std::string Html(const dg::Diagnosis& d, const DiagnoseLogOptions& o) {
                   Format("%.2g", d.discretisation_gap) + ": an effect must remove more than " +
                   Format("%.3g", o.diagnose.min_discretisation_multiple) + " times that.")
     << "</p>\n<img src=\"signals.png\" alt=\"signals\">\n<img src=\"closeup.png\" alt=\"close-up of the worst window\">\n";
+}
+
+void WhereSection(const dg::Diagnosis& d, std::ostringstream& h) {
   h << "<h2 id=\"where\">Where the gap lies</h2><img src=\"where.png\" alt=\"gap by regime and over time\">\n<table><tr><th>signal</th>"
        "<th>full model</th><th>pneumatic side (along the measured motion)</th><th>mechanical side (from the measured pressures)</th>"
        "<th>full model after</th></tr>\n";
@@ -397,41 +402,64 @@ std::string Html(const dg::Diagnosis& d, const DiagnoseLogOptions& o) {
       << Format("%.4f", d.after.full.signal_gap[s]) << "</td></tr>\n";
   }
   h << "</table>\n";
-  if (!left_first) UnexplainedSection(d, o, h);
-  for (size_t r = 0; r < d.rounds.size(); ++r) {
-    const dg::Round& round = d.rounds[r];
-    std::string in_model;
-    for (const std::string& e : round.model_effects) in_model += (in_model.empty() ? "" : " + ") + e;
-    h << "<h2" << (r == 0 ? " id=\"rounds\"" : "") << ">Candidates, round " << r + 1 << "</h2><p>Model effects: "
-      << Escape(in_model.empty() ? std::string("none (the model as given)") : in_model)
-      << "; held-out gap " << Format("%.4f", round.heldout_gap_before) << "; effective samples "
-      << Format("%.0f", round.effective_samples) << ". Accepted: <b>" << Escape(round.accepted) << "</b>.";
-    if (!round.refit_status.empty()) {
-      h << " The found effects' parameters refitted together: " << Escape(round.refit_status) << ", held-out gap "
-        << Format("%.4f", round.refit_heldout_gap) << ".";
-    }
-    if (!round.dropped.empty()) {
-      h << " Then <b>" << Escape(round.dropped) << "</b> was dropped: given the other effects it no longer explains the gap "
-        << "(&Delta;IC " << Format("%.1f", round.dropped_delta_ic) << ", " << Format("%.1f", 100 * round.dropped_improvement)
-        << " % of the held-out gap).";
-    }
-    h << "</p>\n";
-    h << "<img src=\"ranking_" << r + 1 << ".png\" alt=\"ranking\">\n<table><tr><th>effect</th><th>form</th><th>held-out gap</th>"
-         "<th>shrink</th><th>&Delta;IC</th><th>explains</th><th>parameters</th><th>status</th></tr>\n";
-    for (const dg::CandidateResult& c : round.ranking) {
-      std::string params;
-      for (const dg::ParameterResult& p : c.parameters) params += Escape(p.name) + " = " + Format("%.3g", p.value) + " " + Escape(p.unit) + "<br>";
-      const char* status_class = c.status != "fitted" ? "text failed" : !c.rejected.empty() ? "text rejected" : "text";
-      h << "<tr><td>" << Escape(c.effect) << "</td><td class=\"text\">" << Escape(c.form) << "</td><td>" << Format("%.4f", c.heldout_gap)
-        << "</td><td>" << Format("%.1f %%", 100 * c.improvement) << "</td><td>" << Format("%.1f", c.delta_ic) << "</td><td>"
-        << (c.explains ? "<span class=\"yes\">yes</span>" : "no") << "</td><td class=\"text\">" << params << "</td><td class=\"" << status_class
-        << "\">" << Escape(c.status) << (c.rejected.empty() ? "" : "; <b>rejected</b>: " + Escape(c.rejected)) << "</td></tr>\n";
-    }
-    h << "</table>\n";
+}
+
+// round r of the search: the effects in the model, what it accepted, refitted and dropped, and
+// every candidate's figures
+void RoundSection(const dg::Diagnosis& d, size_t r, std::ostringstream& h) {
+  const dg::Round& round = d.rounds[r];
+  std::string in_model;
+  for (const std::string& e : round.model_effects) in_model += (in_model.empty() ? "" : " + ") + e;
+  h << "<h2" << (r == 0 ? " id=\"rounds\"" : "") << ">Candidates, round " << r + 1 << "</h2><p>Model effects: "
+    << Escape(in_model.empty() ? std::string("none (the model as given)") : in_model)
+    << "; held-out gap " << Format("%.4f", round.heldout_gap_before) << "; effective samples "
+    << Format("%.0f", round.effective_samples) << ". Accepted: <b>" << Escape(round.accepted) << "</b>.";
+  if (!round.refit_status.empty()) {
+    h << " The found effects' parameters refitted together: " << Escape(round.refit_status) << ", held-out gap "
+      << Format("%.4f", round.refit_heldout_gap) << ".";
   }
+  if (!round.dropped.empty()) {
+    h << " Then <b>" << Escape(round.dropped) << "</b> was dropped: given the other effects it no longer explains the gap "
+      << "(&Delta;IC " << Format("%.1f", round.dropped_delta_ic) << ", " << Format("%.1f", 100 * round.dropped_improvement)
+      << " % of the held-out gap).";
+  }
+  h << "</p>\n";
+  h << "<img src=\"ranking_" << r + 1 << ".png\" alt=\"ranking\">\n<table><tr><th>effect</th><th>form</th><th>held-out gap</th>"
+       "<th>shrink</th><th>&Delta;IC</th><th>explains</th><th>parameters</th><th>status</th></tr>\n";
+  for (const dg::CandidateResult& c : round.ranking) {
+    std::string params;
+    for (const dg::ParameterResult& p : c.parameters) params += Escape(p.name) + " = " + Format("%.3g", p.value) + " " + Escape(p.unit) + "<br>";
+    const char* status_class = c.status != "fitted" ? "text failed" : !c.rejected.empty() ? "text rejected" : "text";
+    h << "<tr><td>" << Escape(c.effect) << "</td><td class=\"text\">" << Escape(c.form) << "</td><td>" << Format("%.4f", c.heldout_gap)
+      << "</td><td>" << Format("%.1f %%", 100 * c.improvement) << "</td><td>" << Format("%.1f", c.delta_ic) << "</td><td>"
+      << (c.explains ? "<span class=\"yes\">yes</span>" : "no") << "</td><td class=\"text\">" << params << "</td><td class=\"" << status_class
+      << "\">" << Escape(c.status) << (c.rejected.empty() ? "" : "; <b>rejected</b>: " + Escape(c.rejected)) << "</td></tr>\n";
+  }
+  h << "</table>\n";
+}
+
+void WhitenessSection(std::ostringstream& h) {
   h << "<h2 id=\"whiteness\">Residual whiteness</h2><img src=\"whiteness.png\" alt=\"residual autocorrelation\">\n<p>Autocorrelation of the "
        "normalised residuals before and after. Residuals of multi-step predictions are correlated even for a perfect model "
        "(the error of the start state carries through a window); what matters is how much structure the effect removes.</p>\n";
+}
+
+std::string Html(const dg::Diagnosis& d, const DiagnoseLogOptions& o) {
+  std::ostringstream h;
+  // what is left comes first where it is the answer
+  const bool left_first = d.verdict == "unexplained" || d.unexplained.present;
+  Head(d, o, h);
+  VerdictBox(d, o, h);
+  Navigation(d, left_first, h);
+  if (left_first) UnexplainedSection(d, o, h);
+  if (!d.parameters.empty()) FittedEffectSection(d, h);
+  CalibrationSection(d, h);
+  NoiseFloorSection(d, h);
+  SignalsSection(d, o, h);
+  WhereSection(d, h);
+  if (!left_first) UnexplainedSection(d, o, h);
+  for (size_t r = 0; r < d.rounds.size(); ++r) RoundSection(d, r, h);
+  WhitenessSection(h);
   h << "</body></html>\n";
   return h.str();
 }

@@ -182,6 +182,63 @@ long NonUniformStep(const std::vector<double>& time, double* median) {
   return -1;
 }
 
+// the text of a comment line after its '#' and one space; an error if it holds a carriage return
+std::string ParseComment(const std::string& text, std::string* comment) {
+  *comment = text.substr(text.find('#') + 1);
+  if (!comment->empty() && (*comment)[0] == ' ') comment->erase(0, 1);
+  if (comment->find('\r') != std::string::npos) {
+    // a line break the writer could not write back (a file with carriage-return line endings?)
+    return "carriage return inside a comment line, expected line feeds between lines";
+  }
+  return "";
+}
+
+// a data row's fields appended to log's time and values; on error returns the message and sets
+// *column
+std::string ParseRow(const std::vector<std::string_view>& fields, const std::vector<bool>& is_valve,
+                     Log* log, std::size_t* column) {
+  if (fields.size() != log->columns.size() + 1) {
+    *column = std::min(fields.size(), log->columns.size() + 1) + 1;
+    return "row has " + std::to_string(fields.size()) + " fields, expected " +
+           std::to_string(log->columns.size() + 1) + " as in the header";
+  }
+  for (std::size_t i = 0; i < fields.size(); ++i) {
+    double value = 0;
+    *column = i + 1;
+    const std::string problem = ParseNumber(fields[i], &value);
+    if (!problem.empty()) return problem;
+    if (i == 0) {
+      if (!log->time.empty() && !(value > log->time.back())) {
+        return "time " + Format(value) + " is not greater than the previous row's " +
+               Format(log->time.back()) + ", expected strictly increasing time";
+      }
+      log->time.push_back(value);
+    } else {
+      if (is_valve[i - 1] && value != 0 && value != 1) {
+        return "valve state " + Quote(fields[i]) + " in column " +
+               Quote(log->columns[i - 1].name()) + " is not 0 or 1";
+      }
+      log->values[i - 1].push_back(value);
+    }
+  }
+  return "";
+}
+
+// uniform spacing: every step matches the median step; on error returns the message and sets
+// *line to the line of the row that breaks it
+std::string SpacingProblem(const Log& log, const std::vector<std::size_t>& row_lines,
+                           std::size_t* line) {
+  double median = 0;
+  if (const long i = NonUniformStep(log.time, &median); i >= 0) {
+    const auto k = static_cast<std::size_t>(i);
+    *line = row_lines[k + 1];
+    return "time step " + Format(log.time[k + 1] - log.time[k]) +
+           " s differs from the median step " + Format(median) +
+           " s, expected uniformly spaced rows";
+  }
+  return "";
+}
+
 ReadResult Parse(std::istream& in, const std::string& name, const ReadOptions& options) {
   auto fail = [&name](std::size_t line, std::size_t column, const std::string& message) {
     ReadResult result;
@@ -217,11 +274,9 @@ ReadResult Parse(std::istream& in, const std::string& name, const ReadOptions& o
       if (header_line) {
         return fail(line_number, 1, "comment line after the header, expected a data row");
       }
-      std::string comment = text.substr(text.find('#') + 1);
-      if (!comment.empty() && comment[0] == ' ') comment.erase(0, 1);
-      if (comment.find('\r') != std::string::npos) {
-        // a line break the writer could not write back (a file with carriage-return line endings?)
-        return fail(line_number, 1, "carriage return inside a comment line, expected line feeds between lines");
+      std::string comment;
+      if (std::string problem = ParseComment(text, &comment); !problem.empty()) {
+        return fail(line_number, 1, problem);
       }
       log.comments.push_back(std::move(comment));
       continue;
@@ -240,30 +295,9 @@ ReadResult Parse(std::istream& in, const std::string& name, const ReadOptions& o
     }
 
     // data row
-    if (fields.size() != log.columns.size() + 1) {
-      return fail(line_number, std::min(fields.size(), log.columns.size() + 1) + 1,
-                  "row has " + std::to_string(fields.size()) + " fields, expected " +
-                      std::to_string(log.columns.size() + 1) + " as in the header");
-    }
-    for (std::size_t i = 0; i < fields.size(); ++i) {
-      double value = 0;
-      const std::string problem = ParseNumber(fields[i], &value);
-      if (!problem.empty()) return fail(line_number, i + 1, problem);
-      if (i == 0) {
-        if (!log.time.empty() && !(value > log.time.back())) {
-          return fail(line_number, 1,
-                      "time " + Format(value) + " is not greater than the previous row's " +
-                          Format(log.time.back()) + ", expected strictly increasing time");
-        }
-        log.time.push_back(value);
-      } else {
-        if (is_valve[i - 1] && value != 0 && value != 1) {
-          return fail(line_number, i + 1,
-                      "valve state " + Quote(fields[i]) + " in column " +
-                          Quote(log.columns[i - 1].name()) + " is not 0 or 1");
-        }
-        log.values[i - 1].push_back(value);
-      }
+    std::size_t column = 1;
+    if (std::string problem = ParseRow(fields, is_valve, &log, &column); !problem.empty()) {
+      return fail(line_number, column, problem);
     }
     row_lines.push_back(line_number);
   }
@@ -274,14 +308,10 @@ ReadResult Parse(std::istream& in, const std::string& name, const ReadOptions& o
   }
   if (log.time.empty()) return fail(header_line, 1, "header has no data rows");
 
-  // uniform spacing: every step matches the median step
   if (options.uniform_time) {
-    double median = 0;
-    if (const long i = NonUniformStep(log.time, &median); i >= 0) {
-      const auto k = static_cast<std::size_t>(i);
-      return fail(row_lines[k + 1], 1,
-                  "time step " + Format(log.time[k + 1] - log.time[k]) + " s differs from the median step " +
-                      Format(median) + " s, expected uniformly spaced rows");
+    std::size_t line = 0;
+    if (std::string problem = SpacingProblem(log, row_lines, &line); !problem.empty()) {
+      return fail(line, 1, problem);
     }
   }
   log.source = name;

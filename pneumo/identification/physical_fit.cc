@@ -344,6 +344,106 @@ std::string FittedSeries(const std::vector<CylinderInfo>& cylinders, const std::
   return "";
 }
 
+std::string CheckFitOptions(const PhysicalFitOptions& options) {
+  if (options.keys.empty()) return "no keys to fit";
+  if (options.threads < 1) return "threads must be at least 1";
+  if (options.max_iterations < 0) return "max_iterations must be >= 0";
+  if (!(options.relative_step > 0 && options.relative_step < 0.1)) return "relative_step must be in (0, 0.1)";
+  return "";
+}
+
+// the keys, checked against the model, each once
+std::string ResolveKeys(const mjModel* m, const std::vector<FitKey>& fit_keys, std::vector<ResolvedKey>* keys) {
+  for (const FitKey& k : fit_keys) {
+    std::string error;
+    std::optional<ResolvedKey> r = Resolve(m, k, &error);
+    if (!r) return error;
+    for (const ResolvedKey& other : *keys) {
+      bool same = other.key.cylinder == k.cylinder &&
+                  (other.key.key == k.key || BaseKey(other.key.key) == k.key || BaseKey(k.key) == other.key.key);
+      if (same) return "cylinder '" + k.cylinder + "': key '" + k.key + "' is fitted twice (with '" + other.key.key + "')";
+    }
+    keys->push_back(*r);
+  }
+  return "";
+}
+
+// the log: a velocity where missing (*motion), the pressure series, enough rows
+std::string PrepareLog(const log::Log& log, const std::vector<CylinderInfo>& cylinders,
+                       const std::vector<ResolvedKey>& keys, PhysicalFit* fit, std::optional<log::Log>* motion,
+                       std::vector<Series>* series) {
+  if (std::string problem = log::ValidateLog(log, /*uniform_time=*/true); !problem.empty()) return "log: " + problem;
+  *motion = MotionLog(log, cylinders, &fit->warnings, &fit->error);
+  if (!*motion) return fit->error;
+  if (std::string problem = FittedSeries(cylinders, keys, **motion, series); !problem.empty()) return problem;
+  // at least 10 rows of residuals per fitted key and 20 in all: fewer leave the estimates and
+  // the Newey-West covariance of their errors to a handful of samples
+  const size_t needed = std::max<size_t>(20, 10 * keys.size()) + 1;
+  if (log.rows() < needed) {
+    return "the log has " + std::to_string(log.rows()) + " rows: fitting " + std::to_string(keys.size()) +
+           " keys needs at least " + std::to_string(needed);
+  }
+  return "";
+}
+
+// Levenberg-Marquardt's settings
+ceres::Solver::Options SolverOptions(const PhysicalFitOptions& options) {
+  ceres::Solver::Options solver;
+  solver.minimizer_type = ceres::TRUST_REGION;
+  solver.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  solver.linear_solver_type = ceres::DENSE_QR;
+  solver.max_num_iterations = options.max_iterations;
+  solver.num_threads = 1;  // the rollouts are the parallel part, and one thread keeps Ceres deterministic
+  // Stop when the sum of squares S changes by less than 1e-7 of itself: moving a parameter by one
+  // standard error changes S by about S / N (N residuals, 1e-3 S for a 5 s log), so this is
+  // about 0.01 standard error; or when a step changes z (of order 1) by less than 1e-8. Tighter
+  // tolerances only make Levenberg-Marquardt reject steps in the rollouts' round-off.
+  solver.parameter_tolerance = 1e-8;
+  solver.function_tolerance = 1e-7;
+  solver.gradient_tolerance = 1e-12;
+  // no projected line search at the bounds: it asks for the Jacobian (p rollouts) at every
+  // candidate, rejected ones included; a candidate beyond a bound is refused by SetParameter and
+  // Levenberg-Marquardt shrinks its step instead
+  solver.max_num_line_search_step_size_iterations = 0;
+  solver.logging_type = ceres::SILENT;
+  solver.update_state_every_iteration = true;
+  return solver;
+}
+
+// standard errors, correlations, flags: the fitted parameters at the optimum `values`, whose
+// residuals are r and Jacobian J (the keys' own units), into *fit
+void ReportParameters(const std::vector<ResolvedKey>& keys, const std::vector<double>& values, const Eigen::VectorXd& r,
+                      Eigen::MatrixXd J, const Simulator& sim, const PhysicalFitOptions& options, PhysicalFit* fit) {
+  const size_t p = keys.size();
+  std::vector<std::string> names;
+  std::vector<double> scales;
+  for (const ResolvedKey& k : keys) names.push_back(k.key.name()), scales.push_back(k.key.scale);
+  UncertaintyOptions uncertainty_options = options.uncertainty;
+  uncertainty_options.series_starts = sim.series_starts();
+  Uncertainty u = EstimateUncertainty(J, r, names, values, scales, uncertainty_options);
+  if (!u.error.empty()) fit->warnings.push_back("standard errors: " + u.error);
+  fit->correlation = u.correlation;
+  fit->lag_window = u.lag_window;
+  for (size_t i = 0; i < p; ++i) {
+    FittedParameter f;
+    f.cylinder = keys[i].key.cylinder, f.key = keys[i].key.key, f.unit = keys[i].unit;
+    f.initial = keys[i].initial, f.value = values[i];
+    f.standard_error = i < u.standard_error.size() ? u.standard_error[i] : std::numeric_limits<double>::infinity();
+    f.poorly_determined = i < u.poorly_determined.size() ? u.poorly_determined[i] : "not determined";
+    // a value held by its bound is not a least-squares optimum: the data push it further
+    double margin = 1e-6 * keys[i].s;
+    if (values[i] <= keys[i].lower + margin || values[i] >= keys[i].upper - margin) {
+      fit->warnings.push_back(keys[i].key.name() + " ended at its bound " + Format("%.6g", values[i]) +
+                              ": the data push it beyond (a missing effect, or a wrong fixed parameter?)");
+    }
+    fit->parameters.push_back(f);
+  }
+  fit->final_residuals = r;
+  fit->series_starts = uncertainty_options.series_starts;
+  fit->jacobian = std::move(J);
+  fit->rollouts = static_cast<int>(sim.rollouts());
+}
+
 }  // namespace
 
 std::optional<FitKey> ParseFitKey(const std::string& text, std::string* error) {
@@ -400,37 +500,13 @@ PhysicalFit FitPhysical(const mjModel* m, const log::Log& log, const PhysicalFit
   };
   std::vector<CylinderInfo> cylinders;
   if (std::string problem = AttachedCylinders(m, &cylinders); !problem.empty()) return fail(problem);
-  if (options.keys.empty()) return fail("no keys to fit");
-  if (options.threads < 1) return fail("threads must be at least 1");
-  if (options.max_iterations < 0) return fail("max_iterations must be >= 0");
-  if (!(options.relative_step > 0 && options.relative_step < 0.1)) return fail("relative_step must be in (0, 0.1)");
-
-  // the keys, checked against the model, each once
+  if (std::string problem = CheckFitOptions(options); !problem.empty()) return fail(problem);
   std::vector<ResolvedKey> keys;
-  for (const FitKey& k : options.keys) {
-    std::string error;
-    std::optional<ResolvedKey> r = Resolve(m, k, &error);
-    if (!r) return fail(error);
-    for (const ResolvedKey& other : keys) {
-      bool same = other.key.cylinder == k.cylinder &&
-                  (other.key.key == k.key || BaseKey(other.key.key) == k.key || BaseKey(k.key) == other.key.key);
-      if (same) return fail("cylinder '" + k.cylinder + "': key '" + k.key + "' is fitted twice (with '" + other.key.key + "')");
-    }
-    keys.push_back(*r);
-  }
-
-  // the log: a velocity where missing, the pressure series, enough rows
-  if (std::string problem = log::ValidateLog(log, /*uniform_time=*/true); !problem.empty()) return fail("log: " + problem);
-  std::optional<log::Log> motion = MotionLog(log, cylinders, &fit.warnings, &fit.error);
-  if (!motion) return fail(fit.error);
+  if (std::string problem = ResolveKeys(m, options.keys, &keys); !problem.empty()) return fail(problem);
+  std::optional<log::Log> motion;
   std::vector<Series> series;
-  if (std::string problem = FittedSeries(cylinders, keys, *motion, &series); !problem.empty()) return fail(problem);
-  // at least 10 rows of residuals per fitted key and 20 in all: fewer leave the estimates and
-  // the Newey-West covariance of their errors to a handful of samples
-  const size_t needed = std::max<size_t>(20, 10 * keys.size()) + 1;
-  if (log.rows() < needed) {
-    return fail("the log has " + std::to_string(log.rows()) + " rows: fitting " + std::to_string(keys.size()) +
-                " keys needs at least " + std::to_string(needed));
+  if (std::string problem = PrepareLog(log, cylinders, keys, &fit, &motion, &series); !problem.empty()) {
+    return fail(problem);
   }
   Simulator sim(m, std::move(*motion), keys, std::move(series));
   fit.residuals = sim.residual_count();
@@ -449,25 +525,7 @@ PhysicalFit FitPhysical(const mjModel* m, const log::Log& log, const PhysicalFit
     problem.SetParameterLowerBound(z.data(), static_cast<int>(i), keys[i].lower / keys[i].s);
     problem.SetParameterUpperBound(z.data(), static_cast<int>(i), keys[i].upper / keys[i].s);
   }
-  ceres::Solver::Options solver;
-  solver.minimizer_type = ceres::TRUST_REGION;
-  solver.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  solver.linear_solver_type = ceres::DENSE_QR;
-  solver.max_num_iterations = options.max_iterations;
-  solver.num_threads = 1;  // the rollouts are the parallel part, and one thread keeps Ceres deterministic
-  // Stop when the sum of squares S changes by less than 1e-7 of itself: moving a parameter by one
-  // standard error changes S by about S / N (N residuals, 1e-3 S for a 5 s log), so this is
-  // about 0.01 standard error; or when a step changes z (of order 1) by less than 1e-8. Tighter
-  // tolerances only make Levenberg-Marquardt reject steps in the rollouts' round-off.
-  solver.parameter_tolerance = 1e-8;
-  solver.function_tolerance = 1e-7;
-  solver.gradient_tolerance = 1e-12;
-  // no projected line search at the bounds: it asks for the Jacobian (p rollouts) at every
-  // candidate, rejected ones included; a candidate beyond a bound is refused by SetParameter and
-  // Levenberg-Marquardt shrinks its step instead
-  solver.max_num_line_search_step_size_iterations = 0;
-  solver.logging_type = ceres::SILENT;
-  solver.update_state_every_iteration = true;
+  ceres::Solver::Options solver = SolverOptions(options);
   Progress progress(options, keys, z.data(), fit.residuals);
   solver.callbacks.push_back(&progress);
   ceres::Solver::Summary summary;
@@ -487,35 +545,7 @@ PhysicalFit FitPhysical(const mjModel* m, const log::Log& log, const PhysicalFit
   const Eigen::VectorXd r = *cost->ResidualsAt(values);
   for (size_t i = 0; i < p; ++i) J.col(static_cast<Eigen::Index>(i)) /= keys[i].s;
   fit.rms_after_pa = Rms(r);
-
-  // standard errors, correlations, flags
-  std::vector<std::string> names;
-  std::vector<double> scales;
-  for (const ResolvedKey& k : keys) names.push_back(k.key.name()), scales.push_back(k.key.scale);
-  UncertaintyOptions uncertainty_options = options.uncertainty;
-  uncertainty_options.series_starts = sim.series_starts();
-  Uncertainty u = EstimateUncertainty(J, r, names, values, scales, uncertainty_options);
-  if (!u.error.empty()) fit.warnings.push_back("standard errors: " + u.error);
-  fit.correlation = u.correlation;
-  fit.lag_window = u.lag_window;
-  for (size_t i = 0; i < p; ++i) {
-    FittedParameter f;
-    f.cylinder = keys[i].key.cylinder, f.key = keys[i].key.key, f.unit = keys[i].unit;
-    f.initial = keys[i].initial, f.value = values[i];
-    f.standard_error = i < u.standard_error.size() ? u.standard_error[i] : std::numeric_limits<double>::infinity();
-    f.poorly_determined = i < u.poorly_determined.size() ? u.poorly_determined[i] : "not determined";
-    // a value held by its bound is not a least-squares optimum: the data push it further
-    double margin = 1e-6 * keys[i].s;
-    if (values[i] <= keys[i].lower + margin || values[i] >= keys[i].upper - margin) {
-      fit.warnings.push_back(keys[i].key.name() + " ended at its bound " + Format("%.6g", values[i]) +
-                             ": the data push it beyond (a missing effect, or a wrong fixed parameter?)");
-    }
-    fit.parameters.push_back(f);
-  }
-  fit.final_residuals = r;
-  fit.series_starts = uncertainty_options.series_starts;
-  fit.jacobian = std::move(J);
-  fit.rollouts = static_cast<int>(sim.rollouts());
+  ReportParameters(keys, values, r, std::move(J), sim, options, &fit);
   return fit;
 }
 

@@ -203,262 +203,374 @@ std::string CheckCommands(const std::vector<Channel>& channels, const std::vecto
   return "";
 }
 
+// a pid run's pressure targets (pressure_margin > 0) need proportional valves per chamber whose
+// pressure models the controller can invert, and a margin and step that leave it room
+std::string CheckPressureTargets(const Channel& ch, const PositionPidGains& gains) {
+  const ValveDrive& drive = ch.drive;
+  if (drive.kind != ValveDrive::Kind::kPerChamber || !drive.pressure_targets) {
+    return "cylinder '" + ch.info.name + "': pressure_margin needs one proportional valve per chamber, " +
+           "each chamber with the identified pressure model or the physical one with thin-plate flow";
+  }
+  if (!(2 * gains.pressure_margin < drive.p_supply - drive.p_exhaust)) {
+    return "cylinder '" + ch.info.name + "': pressure_margin " + std::to_string(gains.pressure_margin) +
+           " Pa leaves no pressure between p_exhaust + margin and p_supply - margin";
+  }
+  if (!(gains.pressure_step > 0 && gains.pressure_step <= 1)) {
+    return "cylinder '" + ch.info.name + "': pressure_step must be in (0, 1]";
+  }
+  return "";
+}
+
+// a target the piston cannot reach: x within half the stroke of mid-stroke (m, or rad for a vane);
+// the summary's warning, or ""
+std::string UnreachableReference(const Channel& ch) {
+  if (!ch.reference.given()) return "";
+  const double half_stroke = ch.drive.half_stroke;
+  const auto [low, high] = std::minmax_element(ch.reference.Rows().begin(), ch.reference.Rows().end());
+  if (*low < -half_stroke || *high > half_stroke) {
+    char text[300];
+    std::snprintf(text, sizeof(text),
+                  "cylinder '%s': its reference reaches %.6g, beyond the stroke (x within +-%.6g of mid-stroke): "
+                  "the piston cannot follow there",
+                  ch.info.name.c_str(), *low < -half_stroke ? *low : *high, half_stroke);
+    return text;
+  }
+  return "";
+}
+
+using DataPtr = std::unique_ptr<mjData, void (*)(mjData*)>;
+
+// One run of RunClosedLoop: the simulation, the channels, the controller, the log being written and
+// the summary (the result's), which its steps share. Every step returns an error, or "" to go on.
+class ClosedLoopRun {
+ public:
+  ClosedLoopRun(const mjModel* m, const ClosedLoopOptions& options, ClosedLoopResult* result)
+      : m_(m), options_(options), result_(*result), summary_(result->summary) {}
+
+  std::string Run() {
+    if (std::string e = CheckOptions(); !e.empty()) return e;
+    if (std::string e = StartSimulation(); !e.empty()) return e;
+    if (std::string e = PrepareChannels(); !e.empty()) return e;
+    AddMeasuredColumns();
+    if (std::string e = PrepareController(); !e.empty()) return e;
+    StartSummary();
+    if (std::string e = PrepareLoop(); !e.empty()) return e;
+    const auto start = std::chrono::steady_clock::now();
+    const bool uses_mobility = controller_ && controller_->UsesMobility();
+    mobility_.assign(channels_.size(), 0.0);
+    for (long k = 0; k < ticks_; ++k) {
+      if (std::string e = StepOneControlPeriod(k, uses_mobility); !e.empty()) return e;
+    }
+    FinishSummary(start);
+    SaveFinalState();
+    result_.log = std::move(out_);
+    return "";
+  }
+
+ private:
+  // the options, and the control period as a whole number of model steps
+  std::string CheckOptions() {
+    const ClosedLoopOptions& options = options_;
+    if (std::string problem = AttachedCylinders(m_, &cylinders_); !problem.empty()) return problem;
+    if (!(options.duration > 0) || !std::isfinite(options.duration)) return "the duration must be positive";
+    if (!(options.control_rate > 0) || !std::isfinite(options.control_rate)) return "the control rate must be positive";
+    if (options.controller != "pid" && options.controller != "none" &&
+        !(options.controller == "custom" && options.make_controller)) {
+      return "unknown controller '" + options.controller + "' (choices: pid none)";
+    }
+    if (!(options.noise_pressure >= 0) || !(options.noise_position >= 0)) return "sensor noise must be >= 0";
+    if (options.command_delay_ticks < 0) return "the command delay must be >= 0 ticks";
+    if (options.command_delay_ticks > 0 && options.resume) return "a run with a command delay cannot be resumed";
+    period_ = 1 / options.control_rate;
+    steps_per_tick_ = std::lround(period_ / m_->opt.timestep);
+    if (steps_per_tick_ < 1 ||
+        std::fabs(static_cast<double>(steps_per_tick_) * m_->opt.timestep - period_) > 1e-9 * period_) {
+      return "the control period " + std::to_string(period_) + " s is not a whole number of model timesteps (" +
+             std::to_string(m_->opt.timestep) + " s)";
+    }
+    ticks_ = std::lround(std::ceil(options.duration * options.control_rate - 1e-9));
+    for (const auto& [name, gains] : options.cylinder_gains) {
+      bool known = false;
+      for (const CylinderInfo& c : cylinders_) known |= c.name == name;
+      if (!known) return "controller gains for '" + name + "', which is not a cylinder of the model";
+    }
+    return "";
+  }
+
+  // the model's data at its first keyframe (or its reset state), or as the run to resume left it
+  std::string StartSimulation() {
+    d_.reset(mj_makeData(m_));
+    if (!d_) return "mj_makeData failed";
+    if (m_->nkey > 0) mj_resetDataKeyframe(m_, d_.get(), 0);
+    mj_forward(m_, d_.get());
+    if (options_.resume) {
+      // the state as the interrupted run left it, after its last mj_step (no forward pass since)
+      size_t size = 0;
+      for (const auto& [array, n] : StepStateArrays(m_, d_.get())) size += static_cast<size_t>(n);
+      if (options_.resume->mujoco.size() != size || options_.resume->hold.size() != cylinders_.size() ||
+          options_.resume->noise.size() != cylinders_.size()) {
+        return "the state to resume from is not one of this model's runs";
+      }
+      const double* from = options_.resume->mujoco.data();
+      for (const auto& [array, n] : StepStateArrays(m_, d_.get())) {
+        std::copy(from, from + n, array);
+        from += n;
+      }
+    }
+    return "";
+  }
+
+  // the channels and the log's columns: every cylinder's commands (its measured signals follow in
+  // AddMeasuredColumns)
+  std::string PrepareChannels() {
+    const ClosedLoopOptions& options = options_;
+    out_.comments.push_back("closed-loop rollout: controller " + options.controller + " at " +
+                            std::to_string(options.control_rate) + " Hz, commands held between ticks");
+    for (size_t i = 0; i < cylinders_.size(); ++i) {
+      Channel ch{cylinders_[i], {}, {nullptr, -1}, 0, Stream(options.seed, i, kSensorNoise), {}};
+      if (std::string e = DriveOf(m_, ch.info, &ch.drive); !e.empty()) return e;
+      if (options.reference) {
+        ch.reference = Reference(options.reference, options.reference->FindColumn(ch.info.name, "ref"));
+      }
+      ch.hold = options.resume ? options.resume->hold[i] : PistonPosition(m_, d_.get(), ch.info);
+      if (options.resume && !ch.noise.Load(options.resume->noise[i])) return "the state's noise stream is not one";
+      for (const auto& [signal, value] : RestCommands(ch.drive)) {
+        int actuator = ch.info.CommandActuator(signal);
+        if (actuator < 0) return "cylinder '" + ch.info.name + "' has no actuator '" + ch.info.name + "." + signal + "'";
+        ch.command_columns.emplace_back(actuator, static_cast<int>(out_.columns.size()));
+        out_.columns.push_back({ch.info.name, signal});
+      }
+      drives_.push_back(ch.drive);
+      auto it = options.cylinder_gains.find(ch.info.name);
+      gains_.push_back(it != options.cylinder_gains.end() ? it->second : options.gains);
+      if (options.controller == "pid" && gains_.back().pressure_margin > 0) {
+        if (std::string e = CheckPressureTargets(ch, gains_.back()); !e.empty()) return e;
+      }
+      channels_.push_back(std::move(ch));
+    }
+    return "";
+  }
+
+  void AddMeasuredColumns() {
+    first_measured_ = out_.columns.size();
+    for (const Channel& ch : channels_) {
+      for (const char* signal : {"p_P", "p_N", "x", "v", "p_S", "ref"}) out_.columns.push_back({ch.info.name, signal});
+    }
+    out_.values.assign(out_.columns.size(), {});
+    for (auto& column : out_.values) column.reserve(static_cast<size_t>(ticks_));
+  }
+
+  // the controller the options name (none for "none"), resumed if the run is
+  std::string PrepareController() {
+    if (options_.controller == "pid") {
+      controller_ = std::make_unique<PositionPid>(drives_, gains_, period_);
+    } else if (options_.controller == "custom") {
+      std::string why;
+      controller_ = options_.make_controller(drives_, period_, &why);
+      if (!controller_) return "the controller: " + why;
+      if (std::fabs(controller_->Period() - period_) > 1e-12 * period_) {
+        return "the controller's period differs from the control rate's";
+      }
+    }
+    if (options_.resume && controller_ && !controller_->SetState(options_.resume->controller)) {
+      return "the state's controller state is not this controller's";
+    }
+    return "";
+  }
+
+  void StartSummary() {
+    for (const Channel& ch : channels_) {
+      CylinderSummary s;
+      s.name = ch.info.name;
+      s.p_min[0] = s.p_min[1] = 1e300, s.p_max[0] = s.p_max[1] = -1e300;
+      summary_.cylinders.push_back(s);
+      if (std::string warning = UnreachableReference(ch); !warning.empty()) summary_.warnings.push_back(warning);
+    }
+    squared_error_.assign(channels_.size(), 0);
+  }
+
+  // every chamber's pressure range, sampled after every step (the summary's p_min, p_max)
+  void SamplePressures() {
+    for (size_t i = 0; i < channels_.size(); ++i) {
+      CylinderSummary& s = summary_.cylinders[i];
+      for (int chamber = 0; chamber < 2; ++chamber) {
+        const double p = ChamberPressure(m_, d_.get(), channels_[i].info, chamber == 0 ? Chamber::kP : Chamber::kN);
+        s.p_min[chamber] = std::min(s.p_min[chamber], p), s.p_max[chamber] = std::max(s.p_max[chamber], p);
+        s.within_supply_range &= p >= channels_[i].info.p_exhaust - 1 && p <= channels_[i].info.p_supply + 1;
+      }
+    }
+  }
+
+  // the initial pressures sampled, the buffers the ticks reuse, and the observer shown the start
+  std::string PrepareLoop() {
+    SamplePressures();
+    measured_.resize(channels_.size());
+    scratch_.reset(mj_makeData(m_));
+    if (!scratch_) return "mj_makeData failed";
+    commands_.resize(channels_.size());
+    arrived_.resize(channels_.size());
+    for (size_t i = 0; i < channels_.size(); ++i) arrived_[i] = RestCommands(channels_[i].drive);
+    if (options_.observer) {
+      if (std::string e = options_.observer(d_.get()); !e.empty()) return e;
+    }
+    return "";
+  }
+
+  // tick k: the sensors read, the controller's commands, the log's row, then the model steps to the
+  // next tick with the commands held
+  std::string StepOneControlPeriod(long k, bool uses_mobility) {
+    const double t = d_->time;
+    mjData* present = scratch_.get();
+    PresentStages(m_, d_.get(), present);
+    if (uses_mobility) Mobilities(m_, present, channels_, &mobility_workspace_, &mobility_);
+    ReadSensors(t, present);
+    if (controller_) {
+      controller_->Update(t, measured_, &commands_);
+      if (std::string e = CheckCommands(channels_, commands_); !e.empty()) return e;
+    } else {
+      for (size_t i = 0; i < channels_.size(); ++i) commands_[i] = RestCommands(channels_[i].drive);
+    }
+    ApplyCommandsAndWriteRow(t, present);
+    return StepToNextTick(k);
+  }
+
+  // the measurements at time t (noisy as the options say) and the tracking error of the true state
+  void ReadSensors(double t, const mjData* present) {
+    const ClosedLoopOptions& options = options_;
+    for (size_t i = 0; i < channels_.size(); ++i) {
+      Channel& ch = channels_[i];
+      CylinderMeasurement& y = measured_[i];
+      y.p_P = ChamberPressure(m_, d_.get(), ch.info, Chamber::kP) + options.noise_pressure * ch.noise.Gaussian();
+      y.p_N = ChamberPressure(m_, d_.get(), ch.info, Chamber::kN) + options.noise_pressure * ch.noise.Gaussian();
+      const double x_noise = options.noise_position * ch.noise.Gaussian();
+      y.x = PistonPosition(m_, present, ch.info) + x_noise;
+      y.reference = ch.reference.given() ? ch.reference.At(t) : ch.hold;
+      y.mobility = mobility_[i];
+      // the summary judges the true state, not the noisy sensors
+      const double true_x = y.x - x_noise;
+      const double error = std::fabs(y.reference - true_x);
+      squared_error_[i] += error * error;
+      CylinderSummary& s = summary_.cylinders[i];
+      s.max_tracking_error = std::max(s.max_tracking_error, error);
+    }
+  }
+
+  // the commands that reach the valves now (delayed by command_delay_ticks) into ctrl, and the row:
+  // this tick's commands and the samples taken before they act
+  void ApplyCommandsAndWriteRow(double t, const mjData* present) {
+    out_.time.push_back(t);
+    if (options_.command_delay_ticks > 0) {
+      in_flight_.push_back(commands_);
+      if (in_flight_.size() > static_cast<size_t>(options_.command_delay_ticks)) {
+        arrived_ = in_flight_.front();
+        in_flight_.pop_front();
+      }
+    }
+    const std::vector<CylinderCommands>& applied = options_.command_delay_ticks > 0 ? arrived_ : commands_;
+    size_t column = first_measured_;
+    for (size_t i = 0; i < channels_.size(); ++i) {
+      const Channel& ch = channels_[i];
+      for (size_t j = 0; j < ch.command_columns.size(); ++j) {
+        const auto [actuator, out_column] = ch.command_columns[j];
+        d_->ctrl[actuator] = applied[i][j].second;
+        out_.values[static_cast<size_t>(out_column)].push_back(commands_[i][j].second);
+      }
+      const CylinderMeasurement& y = measured_[i];
+      for (double value : {y.p_P, y.p_N, y.x, PistonVelocity(m_, present, ch.info), SupplyPressure(m_, d_.get(), ch.info),
+                           y.reference}) {
+        out_.values[column++].push_back(value);
+      }
+    }
+  }
+
+  // the control period's model steps, each shown to the observer; an error if the simulation diverged
+  std::string StepToNextTick(long k) {
+    for (long step = 0; step < steps_per_tick_; ++step) {
+      mj_step(m_, d_.get());
+      SamplePressures();
+      if (options_.observer) {
+        if (std::string e = options_.observer(d_.get()); !e.empty()) return e;
+      }
+    }
+    summary_.steps += steps_per_tick_;
+    for (int w : {mjWARN_BADQACC, mjWARN_BADQVEL, mjWARN_BADQPOS, mjWARN_BADCTRL}) {
+      if (d_->warning[w].number > 0) {
+        return "the simulation diverged near t = " + std::to_string(d_->time) + " s (MuJoCo warning " +
+               std::to_string(w) + ")";
+      }
+    }
+    if (options_.progress && (k % 100 == 0 || k + 1 == ticks_)) {
+      options_.progress(static_cast<double>(k + 1) / static_cast<double>(ticks_));
+    }
+    return "";
+  }
+
+  void FinishSummary(std::chrono::steady_clock::time_point start) {
+    ClosedLoopSummary& summary = summary_;
+    summary.simulated_s = static_cast<double>(summary.steps) * m_->opt.timestep;
+    summary.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    summary.real_time_factor = summary.wall_s > 0 ? summary.simulated_s / summary.wall_s : 0;
+    for (size_t i = 0; i < channels_.size(); ++i) {
+      CylinderSummary& s = summary.cylinders[i];
+      s.rms_tracking_error = std::sqrt(squared_error_[i] / static_cast<double>(ticks_));
+      if (!s.within_supply_range) {
+        summary.warnings.push_back("cylinder '" + s.name + "': a chamber pressure left [p_exhaust, p_supply]");
+      }
+    }
+    for (int w = 0; w < mjNWARNING; ++w) {
+      if (d_->warning[w].number > 0) {
+        summary.warnings.push_back("MuJoCo warning " + std::to_string(w) + " raised " +
+                                   std::to_string(d_->warning[w].number) + " times");
+      }
+    }
+  }
+
+  // what a later run needs to go on from here
+  void SaveFinalState() {
+    ClosedLoopState& state = result_.final_state;
+    for (const auto& [array, n] : StepStateArrays(m_, d_.get())) state.mujoco.insert(state.mujoco.end(), array, array + n);
+    if (controller_) state.controller = controller_->State();
+    for (const Channel& ch : channels_) {
+      state.hold.push_back(ch.hold);
+      state.noise.push_back(ch.noise.Save());
+    }
+  }
+
+  const mjModel* m_;
+  const ClosedLoopOptions& options_;
+  ClosedLoopResult& result_;
+  ClosedLoopSummary& summary_;
+  std::vector<CylinderInfo> cylinders_;
+  double period_ = 0;
+  long steps_per_tick_ = 0, ticks_ = 0;
+  DataPtr d_{nullptr, mj_deleteData};
+  DataPtr scratch_{nullptr, mj_deleteData};  // the present stages at a tick (PresentStages)
+  log::Log out_;
+  std::vector<Channel> channels_;
+  std::vector<ValveDrive> drives_;
+  std::vector<PositionPidGains> gains_;
+  size_t first_measured_ = 0;  // the log's first measured column
+  std::unique_ptr<Controller> controller_;
+  std::vector<double> squared_error_;
+  std::vector<CylinderMeasurement> measured_;
+  std::vector<double> mobility_;
+  std::vector<mjtNum> mobility_workspace_;
+  std::vector<CylinderCommands> commands_;
+  // command_delay_ticks: the commands on their way to the valves, oldest first, and the last to
+  // arrive (at rest until the first does)
+  std::deque<std::vector<CylinderCommands>> in_flight_;
+  std::vector<CylinderCommands> arrived_;
+};
+
 }  // namespace
 
 ClosedLoopResult RunClosedLoop(const mjModel* m, const ClosedLoopOptions& options) {
   ClosedLoopResult result;
-  auto fail = [&](const std::string& message) {
-    result.error = message;
+  ClosedLoopRun run(m, options, &result);
+  if (std::string e = run.Run(); !e.empty()) {
+    result.error = e;
     result.log.reset();
-    return result;
-  };
-  std::vector<CylinderInfo> cylinders;
-  if (std::string problem = AttachedCylinders(m, &cylinders); !problem.empty()) return fail(problem);
-  if (!(options.duration > 0) || !std::isfinite(options.duration)) return fail("the duration must be positive");
-  if (!(options.control_rate > 0) || !std::isfinite(options.control_rate)) return fail("the control rate must be positive");
-  if (options.controller != "pid" && options.controller != "none" &&
-      !(options.controller == "custom" && options.make_controller)) {
-    return fail("unknown controller '" + options.controller + "' (choices: pid none)");
   }
-  if (!(options.noise_pressure >= 0) || !(options.noise_position >= 0)) return fail("sensor noise must be >= 0");
-  if (options.command_delay_ticks < 0) return fail("the command delay must be >= 0 ticks");
-  if (options.command_delay_ticks > 0 && options.resume) return fail("a run with a command delay cannot be resumed");
-  const double period = 1 / options.control_rate;
-  const long steps_per_tick = std::lround(period / m->opt.timestep);
-  if (steps_per_tick < 1 || std::fabs(static_cast<double>(steps_per_tick) * m->opt.timestep - period) > 1e-9 * period) {
-    return fail("the control period " + std::to_string(period) + " s is not a whole number of model timesteps (" +
-                std::to_string(m->opt.timestep) + " s)");
-  }
-  const long ticks = std::lround(std::ceil(options.duration * options.control_rate - 1e-9));
-  for (const auto& [name, gains] : options.cylinder_gains) {
-    bool known = false;
-    for (const CylinderInfo& c : cylinders) known |= c.name == name;
-    if (!known) return fail("controller gains for '" + name + "', which is not a cylinder of the model");
-  }
-
-  std::unique_ptr<mjData, void (*)(mjData*)> d(mj_makeData(m), mj_deleteData);
-  if (!d) return fail("mj_makeData failed");
-  if (m->nkey > 0) mj_resetDataKeyframe(m, d.get(), 0);
-  mj_forward(m, d.get());
-  if (options.resume) {
-    // the state as the interrupted run left it, after its last mj_step (no forward pass since)
-    size_t size = 0;
-    for (const auto& [array, n] : StepStateArrays(m, d.get())) size += static_cast<size_t>(n);
-    if (options.resume->mujoco.size() != size || options.resume->hold.size() != cylinders.size() ||
-        options.resume->noise.size() != cylinders.size()) {
-      return fail("the state to resume from is not one of this model's runs");
-    }
-    const double* from = options.resume->mujoco.data();
-    for (const auto& [array, n] : StepStateArrays(m, d.get())) {
-      std::copy(from, from + n, array);
-      from += n;
-    }
-  }
-
-  // the channels and the log's columns: every cylinder's commands, then its measured signals
-  log::Log out;
-  out.comments.push_back("closed-loop rollout: controller " + options.controller + " at " +
-                         std::to_string(options.control_rate) + " Hz, commands held between ticks");
-  std::vector<Channel> channels;
-  std::vector<ValveDrive> drives;
-  std::vector<PositionPidGains> gains;
-  for (size_t i = 0; i < cylinders.size(); ++i) {
-    Channel ch{cylinders[i], {}, {nullptr, -1}, 0, Stream(options.seed, i, kSensorNoise), {}};
-    if (std::string e = DriveOf(m, ch.info, &ch.drive); !e.empty()) return fail(e);
-    if (options.reference) ch.reference = Reference(options.reference, options.reference->FindColumn(ch.info.name, "ref"));
-    ch.hold = options.resume ? options.resume->hold[i] : PistonPosition(m, d.get(), ch.info);
-    if (options.resume && !ch.noise.Load(options.resume->noise[i])) return fail("the state's noise stream is not one");
-    for (const auto& [signal, value] : RestCommands(ch.drive)) {
-      int actuator = ch.info.CommandActuator(signal);
-      if (actuator < 0) return fail("cylinder '" + ch.info.name + "' has no actuator '" + ch.info.name + "." + signal + "'");
-      ch.command_columns.emplace_back(actuator, static_cast<int>(out.columns.size()));
-      out.columns.push_back({ch.info.name, signal});
-    }
-    drives.push_back(ch.drive);
-    auto it = options.cylinder_gains.find(ch.info.name);
-    gains.push_back(it != options.cylinder_gains.end() ? it->second : options.gains);
-    if (options.controller == "pid" && gains.back().pressure_margin > 0) {
-      const ValveDrive& drive = ch.drive;
-      if (drive.kind != ValveDrive::Kind::kPerChamber || !drive.pressure_targets) {
-        return fail("cylinder '" + ch.info.name + "': pressure_margin needs one proportional valve per chamber, " +
-                    "each chamber with the identified pressure model or the physical one with thin-plate flow");
-      }
-      if (!(2 * gains.back().pressure_margin < drive.p_supply - drive.p_exhaust)) {
-        return fail("cylinder '" + ch.info.name + "': pressure_margin " + std::to_string(gains.back().pressure_margin) +
-                    " Pa leaves no pressure between p_exhaust + margin and p_supply - margin");
-      }
-      if (!(gains.back().pressure_step > 0 && gains.back().pressure_step <= 1)) {
-        return fail("cylinder '" + ch.info.name + "': pressure_step must be in (0, 1]");
-      }
-    }
-    channels.push_back(std::move(ch));
-  }
-  const size_t first_measured = out.columns.size();
-  for (const Channel& ch : channels) {
-    for (const char* signal : {"p_P", "p_N", "x", "v", "p_S", "ref"}) out.columns.push_back({ch.info.name, signal});
-  }
-  out.values.assign(out.columns.size(), {});
-  for (auto& column : out.values) column.reserve(static_cast<size_t>(ticks));
-  std::unique_ptr<Controller> controller;
-  if (options.controller == "pid") {
-    controller = std::make_unique<PositionPid>(drives, gains, period);
-  } else if (options.controller == "custom") {
-    std::string why;
-    controller = options.make_controller(drives, period, &why);
-    if (!controller) return fail("the controller: " + why);
-    if (std::fabs(controller->Period() - period) > 1e-12 * period) {
-      return fail("the controller's period differs from the control rate's");
-    }
-  }
-  if (options.resume && controller && !controller->SetState(options.resume->controller)) {
-    return fail("the state's controller state is not this controller's");
-  }
-
-  ClosedLoopSummary& summary = result.summary;
-  for (const Channel& ch : channels) {
-    CylinderSummary s;
-    s.name = ch.info.name;
-    s.p_min[0] = s.p_min[1] = 1e300, s.p_max[0] = s.p_max[1] = -1e300;
-    summary.cylinders.push_back(s);
-    // a target the piston cannot reach: x within half the stroke of mid-stroke (m, or rad for a vane)
-    if (ch.reference.given()) {
-      const double half_stroke = ch.drive.half_stroke;
-      const auto [low, high] = std::minmax_element(ch.reference.Rows().begin(), ch.reference.Rows().end());
-      if (*low < -half_stroke || *high > half_stroke) {
-        char text[300];
-        std::snprintf(text, sizeof(text),
-                      "cylinder '%s': its reference reaches %.6g, beyond the stroke (x within +-%.6g of mid-stroke): "
-                      "the piston cannot follow there",
-                      ch.info.name.c_str(), *low < -half_stroke ? *low : *high, half_stroke);
-        summary.warnings.push_back(text);
-      }
-    }
-  }
-  std::vector<double> squared_error(channels.size(), 0);
-  // every chamber's pressure range, sampled after every step (the summary's p_min, p_max)
-  auto sample_pressures = [&]() {
-    for (size_t i = 0; i < channels.size(); ++i) {
-      CylinderSummary& s = summary.cylinders[i];
-      for (int chamber = 0; chamber < 2; ++chamber) {
-        const double p = ChamberPressure(m, d.get(), channels[i].info, chamber == 0 ? Chamber::kP : Chamber::kN);
-        s.p_min[chamber] = std::min(s.p_min[chamber], p), s.p_max[chamber] = std::max(s.p_max[chamber], p);
-        s.within_supply_range &= p >= channels[i].info.p_exhaust - 1 && p <= channels[i].info.p_supply + 1;
-      }
-    }
-  };
-  sample_pressures();
-  std::vector<CylinderMeasurement> measured(channels.size());
-  std::unique_ptr<mjData, void (*)(mjData*)> scratch(mj_makeData(m), mj_deleteData);
-  if (!scratch) return fail("mj_makeData failed");
-  std::vector<double> mobility;
-  std::vector<mjtNum> mobility_workspace;
-  std::vector<CylinderCommands> commands(channels.size());
-  // command_delay_ticks: the commands on their way to the valves, oldest first, and the last to
-  // arrive (at rest until the first does)
-  std::deque<std::vector<CylinderCommands>> in_flight;
-  std::vector<CylinderCommands> arrived(channels.size());
-  for (size_t i = 0; i < channels.size(); ++i) arrived[i] = RestCommands(channels[i].drive);
-  if (options.observer) {
-    if (std::string e = options.observer(d.get()); !e.empty()) return fail(e);
-  }
-  const auto start = std::chrono::steady_clock::now();
-  const bool uses_mobility = controller && controller->UsesMobility();
-  mobility.assign(channels.size(), 0.0);
-  for (long k = 0; k < ticks; ++k) {
-    const double t = d->time;
-    mjData* present = scratch.get();
-    PresentStages(m, d.get(), present);
-    if (uses_mobility) Mobilities(m, present, channels, &mobility_workspace, &mobility);
-    for (size_t i = 0; i < channels.size(); ++i) {
-      Channel& ch = channels[i];
-      CylinderMeasurement& y = measured[i];
-      y.p_P = ChamberPressure(m, d.get(), ch.info, Chamber::kP) + options.noise_pressure * ch.noise.Gaussian();
-      y.p_N = ChamberPressure(m, d.get(), ch.info, Chamber::kN) + options.noise_pressure * ch.noise.Gaussian();
-      const double x_noise = options.noise_position * ch.noise.Gaussian();
-      y.x = PistonPosition(m, present, ch.info) + x_noise;
-      y.reference = ch.reference.given() ? ch.reference.At(t) : ch.hold;
-      y.mobility = mobility[i];
-      // the summary judges the true state, not the noisy sensors
-      const double true_x = y.x - x_noise;
-      const double error = std::fabs(y.reference - true_x);
-      squared_error[i] += error * error;
-      CylinderSummary& s = summary.cylinders[i];
-      s.max_tracking_error = std::max(s.max_tracking_error, error);
-    }
-    if (controller) {
-      controller->Update(t, measured, &commands);
-      if (std::string e = CheckCommands(channels, commands); !e.empty()) return fail(e);
-    } else {
-      for (size_t i = 0; i < channels.size(); ++i) commands[i] = RestCommands(channels[i].drive);
-    }
-
-    // the row: this tick's commands and the samples taken before they act
-    out.time.push_back(t);
-    if (options.command_delay_ticks > 0) {
-      in_flight.push_back(commands);
-      if (in_flight.size() > static_cast<size_t>(options.command_delay_ticks)) {
-        arrived = in_flight.front();
-        in_flight.pop_front();
-      }
-    }
-    const std::vector<CylinderCommands>& applied = options.command_delay_ticks > 0 ? arrived : commands;
-    size_t column = first_measured;
-    for (size_t i = 0; i < channels.size(); ++i) {
-      const Channel& ch = channels[i];
-      for (size_t j = 0; j < ch.command_columns.size(); ++j) {
-        const auto [actuator, out_column] = ch.command_columns[j];
-        d->ctrl[actuator] = applied[i][j].second;
-        out.values[static_cast<size_t>(out_column)].push_back(commands[i][j].second);
-      }
-      const CylinderMeasurement& y = measured[i];
-      for (double value : {y.p_P, y.p_N, y.x, PistonVelocity(m, present, ch.info), SupplyPressure(m, d.get(), ch.info), y.reference}) {
-        out.values[column++].push_back(value);
-      }
-    }
-
-    for (long step = 0; step < steps_per_tick; ++step) {
-      mj_step(m, d.get());
-      sample_pressures();
-      if (options.observer) {
-        if (std::string e = options.observer(d.get()); !e.empty()) return fail(e);
-      }
-    }
-    summary.steps += steps_per_tick;
-    for (int w : {mjWARN_BADQACC, mjWARN_BADQVEL, mjWARN_BADQPOS, mjWARN_BADCTRL}) {
-      if (d->warning[w].number > 0) {
-        return fail("the simulation diverged near t = " + std::to_string(d->time) + " s (MuJoCo warning " +
-                    std::to_string(w) + ")");
-      }
-    }
-    if (options.progress && (k % 100 == 0 || k + 1 == ticks)) {
-      options.progress(static_cast<double>(k + 1) / static_cast<double>(ticks));
-    }
-  }
-
-  summary.simulated_s = static_cast<double>(summary.steps) * m->opt.timestep;
-  summary.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  summary.real_time_factor = summary.wall_s > 0 ? summary.simulated_s / summary.wall_s : 0;
-  for (size_t i = 0; i < channels.size(); ++i) {
-    CylinderSummary& s = summary.cylinders[i];
-    s.rms_tracking_error = std::sqrt(squared_error[i] / static_cast<double>(ticks));
-    if (!s.within_supply_range) {
-      summary.warnings.push_back("cylinder '" + s.name + "': a chamber pressure left [p_exhaust, p_supply]");
-    }
-  }
-  for (int w = 0; w < mjNWARNING; ++w) {
-    if (d->warning[w].number > 0) {
-      summary.warnings.push_back("MuJoCo warning " + std::to_string(w) + " raised " +
-                                 std::to_string(d->warning[w].number) + " times");
-    }
-  }
-  ClosedLoopState& state = result.final_state;
-  for (const auto& [array, n] : StepStateArrays(m, d.get())) state.mujoco.insert(state.mujoco.end(), array, array + n);
-  if (controller) state.controller = controller->State();
-  for (const Channel& ch : channels) {
-    state.hold.push_back(ch.hold);
-    state.noise.push_back(ch.noise.Save());
-  }
-  result.log = std::move(out);
   return result;
 }
 
