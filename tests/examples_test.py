@@ -13,6 +13,10 @@ starts from working code. One check per ctest case:
   examples_test.py sweep_seeds SCRIPT PNEUMO MODELS_DIR WORK_DIR
       examples/sweep_seeds.py, 2 seeds of 0.5 s on rig C: both summaries with their chamber pressures
       within [P_r, P_c] of docs/rigs.md, the two seeds' logs different (their sensor noise), the plot a PNG
+  examples_test.py randomise_humanoid SCRIPT WORK_DIR   (PYTHONPATH: the module pneumatic)
+      examples/randomise_humanoid.py, 3 draws of the humanoid's wave: each row's parameters inside the
+      ranges it draws from, its tracking errors finite and positive with no warning, the draws with 1
+      and 2 threads the same bytes (each rollout runs on its own copy), the plot a PNG
 
 Exits 1 with what failed.
 """
@@ -93,8 +97,34 @@ def sweep_seeds(script, pneumo, models, work):
         check(f.read(8) == b"\x89PNG\r\n\x1a\n", "sweep.png is not a PNG")
 
 
+def randomise_humanoid(script, work):
+    tables = []
+    for threads in (1, 2):
+        out = os.path.join(work, f"threads{threads}")
+        shutil.rmtree(out, ignore_errors=True)
+        run = subprocess.run(["/usr/bin/python3", script, "--runs", "3", "--threads", str(threads), "--out", out],
+                             capture_output=True, text=True)
+        check(run.returncode == 0, f"randomise_humanoid.py --threads {threads} exited {run.returncode}: {run.stderr.strip()}")
+        if run.returncode != 0:
+            return
+        with open(os.path.join(out, "runs.csv")) as f:
+            tables.append(f.read())
+        with open(os.path.join(out, "randomise_humanoid.png"), "rb") as f:
+            check(f.read(8) == b"\x89PNG\r\n\x1a\n", "randomise_humanoid.png is not a PNG")
+    check(tables[0] == tables[1], "1 and 2 threads gave different runs.csv")
+    rows = [line.split(",") for line in tables[0].strip().split("\n")[1:]]
+    check(len(rows) == 3, f"{len(rows)} rows, 3 draws asked")
+    for row in rows:
+        p_supply, friction, linear, vane, warnings = (float(v) for v in row[1:])
+        check(5e5 <= p_supply <= 7e5, f"draw {row[0]}: p_supply {p_supply} Pa outside [5, 7] bar")
+        check(0 <= friction <= 0.3, f"draw {row[0]}: frictionloss {friction} N m outside [0, 0.3]")
+        check(0 < linear < 1e3 and 0 < vane < 1e3, f"draw {row[0]}: tracking errors {linear} mm, {vane} mrad")
+        check(warnings == 0, f"draw {row[0]}: {warnings} warnings")
+
+
 def main():
-    cases = {"step_rig": step_rig, "humanoid_gesture": humanoid_gesture, "sweep_seeds": sweep_seeds}
+    cases = {"step_rig": step_rig, "humanoid_gesture": humanoid_gesture, "sweep_seeds": sweep_seeds,
+             "randomise_humanoid": randomise_humanoid}
     if len(sys.argv) < 2 or sys.argv[1] not in cases:
         sys.exit(__doc__)
     cases[sys.argv[1]](*sys.argv[2:])

@@ -13,6 +13,7 @@
 #include "formats/log_csv.h"
 #include "formats/model_loading.h"
 #include "pneumatic/pneumatic.h"
+#include "simulation/model_edits.h"
 #include "python/bindings.h"
 
 namespace pneumatic::python {
@@ -102,6 +103,13 @@ Value GetByKey(const Model& model, const std::string& key) {
 }
 
 void SetByKey(Model& model, const std::string& key, const Value& value) {
+  if ((key.rfind("body:", 0) == 0 || key.rfind("joint:", 0) == 0) && std::holds_alternative<double>(value)) {
+    // a MuJoCo field as parameter studies name it ("body:<name>:mass", "joint:<name>:damping",
+    // "joint:<name>:frictionloss"): SetModelValue
+    std::unique_lock lock(model.lock);
+    if (std::string e = SetModelValue(model.model.get(), key, std::get<double>(value)); !e.empty()) throw InputError(e);
+    return;
+  }
   const auto [cylinder, name] = SplitKey(key);
   std::unique_lock lock(model.lock);
   std::string error;
@@ -185,8 +193,9 @@ void BindModel(py::module_& m) {
            "choice's text; ValueError for an unknown cylinder or a key that does not apply")
       .def("set", &SetByKey, py::arg("key"), py::arg("value"),
            "sets a parameter by \"<cylinder>:<key>\", checked exactly as the MJCF is (range, the keys that apply, "
-           "relations); a chamber key without P. or N. sets both. ValueError naming the cylinder and key, and the "
-           "model unchanged, when refused")
+           "relations); a chamber key without P. or N. sets both; also \"body:<name>:mass\", "
+           "\"joint:<name>:damping\" and \"joint:<name>:frictionloss\" (as pneumo study names them). ValueError "
+           "naming the cylinder and key, and the model unchanged, when refused")
       .def("copy", &CopyModel, "a copy with the same parameters, which steps exactly like this model")
       .def("configuration", [](const Model& model, const std::string& cylinder) {
              std::shared_lock lock(model.lock);
