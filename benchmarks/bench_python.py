@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """The Python module's speed: steps per second of a Python loop over Simulation.step (1 and 10 steps
 per call) on rig C and the humanoid, against the same steps in one call; closed-loop rollouts per
-second from Python against `pneumo rollout` started as a process; rollouts on 1 and 2 Python threads
-(each rollout releases the GIL). Prints a Markdown table with the machine and the command.
+second from Python against `pneumo rollout` for the same work (the same rollouts written to the same
+files, whole processes, the start left out by a slope); rollouts on 1 and 2 Python threads (each
+rollout releases the GIL). Prints a Markdown table with the machine and the command.
 
 usage: PYTHONPATH=build/python benchmarks/bench_python.py [--steps 100000] [--rollouts 8] [--pneumo build/bin/pneumo]
 """
@@ -67,6 +68,55 @@ def threaded_rollouts_per_second(run, count, threads):
     return count / (time.perf_counter() - start)
 
 
+def same_work_rows(pneumo, count, duration=5.0, repeats=3):
+    """The binding's cost on the same work: `count` and 2 `count` closed-loop rollouts of rig C under PID
+    (seeds 1.., `duration` s each, position noise), each written to a CSV, by one `pneumo rollout`
+    process with a --seed per rollout and by one python3 process that imports pneumatic and calls
+    rollout and write_log per seed. Both are timed as whole processes, alternately, the best of
+    `repeats`; the cost of one rollout is the slope (T(2 count) - T(count)) / count, which leaves the
+    process's start, the import and the model's loading out. The two write the same bytes (checked)."""
+    rig = os.path.join(MODELS, "rig_per_chamber.xml")
+    script = ("import sys, pneumatic\n"
+              "model = pneumatic.load(sys.argv[1])\n"
+              "for seed in range(1, int(sys.argv[2]) + 1):\n"
+              "    run = pneumatic.rollout(model, controller='pid', duration=%r, seed=seed, noise_position=1e-4)\n"
+              "    pneumatic.write_log('%%s/seed%%d.csv' %% (sys.argv[3], seed), run)\n" % duration)
+
+    def cli(n, folder):
+        seeds = [a for s in range(1, n + 1) for a in ("--seed", str(s))]
+        return [pneumo, "rollout", rig, "--controller", "pid", "--duration", str(duration), "--noise-position",
+                "1e-4", "--jobs", "1", *seeds, "--out", os.path.join(folder, "{run}.csv")]
+
+    def python(n, folder):
+        return [sys.executable, "-c", script, rig, str(n), folder]
+
+    best = {}
+    with tempfile.TemporaryDirectory() as root:
+        for _ in range(repeats):
+            for n in (count, 2 * count):
+                for name, command in (("cli", cli), ("python", python)):
+                    folder = os.path.join(root, "%s%d" % (name, n))
+                    os.makedirs(folder, exist_ok=True)
+                    start = time.perf_counter()
+                    subprocess.run(command(n, folder), check=True, capture_output=True)
+                    took = time.perf_counter() - start
+                    best[name, n] = min(best.get((name, n), took), took)
+        for s in range(1, 2 * count + 1):
+            with open(os.path.join(root, "cli%d" % (2 * count), "seed%d.csv" % s), "rb") as a, \
+                 open(os.path.join(root, "python%d" % (2 * count), "seed%d.csv" % s), "rb") as b:
+                if a.read() != b.read():
+                    sys.exit("bench_python: seed %d: pneumatic.rollout and pneumo rollout wrote different bytes" % s)
+    slope = {name: (best[name, 2 * count] - best[name, count]) / count for name in ("cli", "python")}
+    what = "rig C, %g s under PID, written to CSV" % duration
+    return [
+        "| %s: %d rollouts, one `pneumo rollout` process | %.2f s |" % (what, 2 * count, best["cli", 2 * count]),
+        "| %s: %d rollouts, one python3 process | %.2f s |" % (what, 2 * count, best["python", 2 * count]),
+        "| %s: one rollout more, `pneumo rollout` | %.1f ms |" % (what, 1e3 * slope["cli"]),
+        "| %s: one rollout more, `pneumatic.rollout` + `write_log` | %.1f ms |" % (what, 1e3 * slope["python"]),
+        "| %s: the binding's cost per rollout (Python / CLI - 1) | %+.1f %% |" % (what, 100 * (slope["python"] / slope["cli"] - 1)),
+    ]
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--steps", type=int, default=100000, help="steps per stepping figure (the humanoid: a tenth)")
@@ -87,19 +137,7 @@ def main():
         rows.append("| %s: steps/s, `sim.step(%d)`: one call, the loop in C++ | %.0f |" % (what, steps, whole))
         rows.append("| %s: Python's cost per `sim.step()` call | %.2f us |" % (what, 1e6 * (1 / one - 1 / whole)))
 
-    # closed-loop rollouts: 1 s of rig C under PID, the same from Python and from the command line
-    rig = os.path.join(MODELS, "rig_per_chamber.xml")
-    model = pneumatic.load(rig)
-    python_run = lambda: pneumatic.rollout(model, controller="pid", duration=1.0)  # noqa: E731
-    with tempfile.TemporaryDirectory() as folder:
-        out = os.path.join(folder, "run.csv")
-        cli_run = lambda: subprocess.run(  # noqa: E731
-            [args.pneumo, "rollout", rig, "--controller", "pid", "--duration", "1", "--out", out],
-            check=True, capture_output=True)
-        python_rate = rollouts_per_second(python_run, args.rollouts)
-        cli_rate = rollouts_per_second(cli_run, args.rollouts)
-    rows.append("| rig C, 1 s under PID: rollouts/s, `pneumatic.rollout` | %.1f |" % python_rate)
-    rows.append("| rig C, 1 s under PID: rollouts/s, `pneumo rollout` as a process | %.1f |" % cli_rate)
+    rows += same_work_rows(args.pneumo, args.rollouts)
 
     humanoid = pneumatic.load(os.path.join(MODELS, "humanoid_pneumatic.xml"))
     heavy = lambda: pneumatic.rollout(humanoid, controller="pid", duration=0.5)  # noqa: E731

@@ -117,6 +117,11 @@ TEST_F(StudyTest, PlanErrorsNameTheFileAndTheKey) {
        file + ": points.logs: required"},
       {"{" + model + rollout + "\"points\": {\"grid\": {\"cyl:p_supply\": [5e5]}}, \"scheduler\": \"host\"}",
        file + ": scheduler: expected a Dask scheduler's address"},
+      // 2 grid values times a million draws: 2,000,001 > kMaxPoints, refused before any point is made
+      {"{" + model + rollout +
+           "\"points\": {\"grid\": {\"cyl:p_supply\": [5e5, 6e5]}, \"random\": {\"count\": 1000000, \"seed\": 1, "
+           "\"parameters\": {\"joint:x:damping\": {\"uniform\": [0, 2]}}}}}",
+       file + ": points: the grid times the random draws make more than 1000000 points"},
   };
   for (const auto& [text, message] : cases) {
     SCOPED_TRACE(text);

@@ -38,35 +38,13 @@ int Fail(const std::string& message) {
   return 1;
 }
 
-struct Variation {
-  std::string name;                                          // "" for the model as it is
-  std::vector<std::pair<std::string, double>> parameters;    // "cyl:key" -> value
-};
-
+// the variations file of --variations (simulation/model_edits.h)
 std::string ReadVariations(const std::string& path, std::vector<Variation>* out) {
-  json list;
-  if (std::string e = ReadJsonFile(path, &list); !e.empty()) return e;
-  if (!list.is_array() || list.empty()) return path + ": expected a non-empty array of {\"name\", \"set\"}";
-  for (const json& item : list) {
-    if (!item.is_object() || !item.contains("name") || !item["name"].is_string() || !item.contains("set") ||
-        !item["set"].is_object()) {
-      return path + ": every variation needs \"name\" (text) and \"set\" ({\"cyl:key\": number})";
-    }
-    Variation v{item["name"].get<std::string>(), {}};
-    // the name goes into the output file names ({run}): a plain, unique file name part
-    if (v.name.empty() || v.name.find_first_of("/\\") != std::string::npos || v.name == "." || v.name == "..") {
-      return path + ": variation name '" + v.name + "' must be a non-empty file name part, without '/'";
-    }
-    for (const Variation& earlier : *out) {
-      if (earlier.name == v.name) return path + ": two variations are named '" + v.name + "' (their outputs would collide)";
-    }
-    for (const auto& [key, value] : item["set"].items()) {
-      if (!value.is_number()) return path + ": variation '" + v.name + "': '" + key + "' must be a number";
-      v.parameters.emplace_back(key, value.get<double>());
-    }
-    out->push_back(v);
-  }
-  return "";
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return path + ": cannot read";
+  std::stringstream text;
+  text << in.rdbuf();
+  return ParseVariations(text.str(), path, out);
 }
 
 std::string Substitute(std::string pattern, const std::string& run) {
@@ -167,14 +145,6 @@ std::string PlanRuns(const ClosedLoopCommandOptions& options, const std::vector<
     if (!options.summary_path.empty()) {
       if (std::string e = CheckOutputPath(Substitute(options.summary_path, run.name), "a JSON file"); !e.empty()) return e;
     }
-  }
-  return "";
-}
-
-// a variation's parameters set on the run's copy of the model
-std::string ApplyVariation(const Variation& variation, mjModel* copy) {
-  for (const auto& [name, value] : variation.parameters) {
-    if (std::string e = SetModelValue(copy, name, value); !e.empty()) return "variation '" + variation.name + "': " + e;
   }
   return "";
 }

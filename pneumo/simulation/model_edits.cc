@@ -4,7 +4,10 @@
 #include <cstdio>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "pneumatic/pneumatic.h"
+#include "simulation/controller_config.h"
 
 namespace pneumatic {
 namespace {
@@ -80,6 +83,41 @@ std::string SetModelValue(mjModel* m, const std::string& key, double value) {
       return "'" + key + "': " + Number(value) +
              " leaves the model unsteppable (MuJoCo's warning says why: below a cylinder's coulomb_friction?)";
     }
+  }
+  return "";
+}
+
+std::string ParseVariations(const std::string& text, const std::string& source, std::vector<Variation>* out) {
+  nlohmann::json list;
+  if (std::string e = ParseJson(text, source, &list); !e.empty()) return e;
+  if (!list.is_array() || list.empty()) return source + ": expected a non-empty array of {\"name\", \"set\"}";
+  std::vector<Variation> variations;
+  for (const nlohmann::json& item : list) {
+    if (!item.is_object() || !item.contains("name") || !item["name"].is_string() || !item.contains("set") ||
+        !item["set"].is_object()) {
+      return source + ": every variation needs \"name\" (text) and \"set\" ({\"cyl:key\": number})";
+    }
+    Variation v{item["name"].get<std::string>(), {}};
+    // the name goes into the output file names ({run}): a plain, unique file name part
+    if (v.name.empty() || v.name.find_first_of("/\\") != std::string::npos || v.name == "." || v.name == "..") {
+      return source + ": variation name '" + v.name + "' must be a non-empty file name part, without '/'";
+    }
+    for (const Variation& earlier : variations) {
+      if (earlier.name == v.name) return source + ": two variations are named '" + v.name + "' (their outputs would collide)";
+    }
+    for (const auto& [key, value] : item["set"].items()) {
+      if (!value.is_number()) return source + ": variation '" + v.name + "': '" + key + "' must be a number";
+      v.parameters.emplace_back(key, value.get<double>());
+    }
+    variations.push_back(std::move(v));
+  }
+  *out = std::move(variations);
+  return "";
+}
+
+std::string ApplyVariation(const Variation& variation, mjModel* m) {
+  for (const auto& [key, value] : variation.parameters) {
+    if (std::string e = SetModelValue(m, key, value); !e.empty()) return "variation '" + variation.name + "': " + e;
   }
   return "";
 }

@@ -11,6 +11,8 @@
 #define PNEUMATIC_MODEL_EDITS_H_
 
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <mujoco/mujoco.h>
 
@@ -22,6 +24,20 @@ std::string SetModelValue(mjModel* m, const std::string& key, double value);
 // "" if `key` has one of the forms above (whether m has that cylinder, body or joint is not
 // checked), else why not: for plan files, before any model is loaded.
 std::string CheckModelKeyForm(const std::string& key);
+
+// A named set of values by key: one entry of `pneumo rollout --variations FILE`, whose text is
+// [{"name": "heavy", "set": {"body:piston:mass": 2.0, "cyl:p_supply": 550000}}, ...].
+struct Variation {
+  std::string name;  // a part of the runs' file names: non-empty, no '/', unique in its file
+  std::vector<std::pair<std::string, double>> parameters;  // key -> value, in the file's order
+};
+
+// Parses a variations file's text (its keys' forms and values are checked when they are set).
+// "" or the error naming `source`; *out is filled only on success.
+std::string ParseVariations(const std::string& text, const std::string& source, std::vector<Variation>* out);
+
+// Sets a variation's values on m (a run's own copy). "" or the error naming the variation and key.
+std::string ApplyVariation(const Variation& variation, mjModel* m);
 
 }  // namespace pneumatic
 

@@ -270,19 +270,30 @@ std::string ReadPoints(const Reader& r, const ojson& points, Plan* plan) {
   if (plan->kind == "rollout" && plan->grid.empty() && plan->random.empty()) {
     return r.Error("points", "expected \"grid\" or \"random\" (or both)");
   }
+  if (CountPoints(*plan) > kMaxPoints) {
+    return r.Error("points", "the grid times the random draws make more than " + std::to_string(kMaxPoints) +
+                                 " points: split the study");
+  }
   return "";
 }
 
 }  // namespace
 
 std::string ReadPlan(const std::string& path, Plan* plan) {
-  *plan = Plan{};
-  plan->path = path;
   std::ifstream in(path, std::ios::binary);
-  if (!in) return path + ": cannot read";
+  if (!in) {
+    *plan = Plan{};
+    return path + ": cannot read";
+  }
   std::stringstream text;
   text << in.rdbuf();
-  plan->text = text.str();
+  return ParsePlan(text.str(), path, plan);
+}
+
+std::string ParsePlan(const std::string& text, const std::string& path, Plan* plan) {
+  *plan = Plan{};
+  plan->path = path;
+  plan->text = text;
   try {
     plan->document = ojson::parse(plan->text);
   } catch (const nlohmann::json::exception& e) {
@@ -310,6 +321,16 @@ std::vector<std::string> ParameterKeys(const Plan& plan) {
   for (const auto& [key, values] : plan.grid) keys.push_back(key);
   for (const RandomParameter& p : plan.random) keys.push_back(p.key);
   return keys;
+}
+
+std::size_t CountPoints(const Plan& plan) {
+  if (!plan.logs.empty()) return plan.logs.size();
+  std::size_t count = plan.random.empty() ? 1 : static_cast<std::size_t>(plan.random_count);
+  for (const auto& [key, values] : plan.grid) {
+    if (values.size() > (kMaxPoints + 1) / count) return kMaxPoints + 1;  // beyond the limit, without overflow
+    count *= values.size();
+  }
+  return count;
 }
 
 std::vector<Point> ExpandPoints(const Plan& plan) {

@@ -4,6 +4,7 @@
 #ifndef PNEUMATIC_STUDIES_PLAN_H_
 #define PNEUMATIC_STUDIES_PLAN_H_
 
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <utility>
@@ -63,9 +64,16 @@ struct Point {
   const PointLog* log = nullptr;                        // identify/diagnose over logs
 };
 
+// The most points a plan may make (a grid's combinations times its random draws, or its logs).
+inline constexpr std::size_t kMaxPoints = 1000000;
+
 // Reads and checks the plan at `path`. "" or the error, naming the file and the key
 // ("plan.json: points.grid.cyl:supply_pressure: expected a non-empty array of numbers").
 std::string ReadPlan(const std::string& path, Plan* plan);
+// The same for a plan's text, as if read from `path` (relative paths in it resolve against its folder).
+std::string ParsePlan(const std::string& text, const std::string& path, Plan* plan);
+// How many points ExpandPoints makes (kMaxPoints + 1 for any count beyond kMaxPoints).
+std::size_t CountPoints(const Plan& plan);
 
 // The keys of the plan's points, in results.csv's order: the grid's, then the random draws'.
 std::vector<std::string> ParameterKeys(const Plan& plan);
