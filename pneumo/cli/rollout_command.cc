@@ -38,15 +38,6 @@ int Fail(const std::string& message) {
   return 1;
 }
 
-// the variations file of --variations (simulation/model_edits.h)
-std::string ReadVariations(const std::string& path, std::vector<Variation>* out) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return path + ": cannot read";
-  std::stringstream text;
-  text << in.rdbuf();
-  return ParseVariations(text.str(), path, out);
-}
-
 std::string Substitute(std::string pattern, const std::string& run) {
   size_t at = pattern.find("{run}");
   if (at != std::string::npos) pattern.replace(at, 5, run);
@@ -243,7 +234,9 @@ int RunClosedLoopCommand(const ClosedLoopCommandOptions& options) {
   if (std::string e = ReadReference(model.get(), options, &reference, &base); !e.empty()) return Fail(e);
   std::vector<Variation> variations;
   if (!options.variations_path.empty()) {
-    if (std::string e = ReadVariations(options.variations_path, &variations); !e.empty()) return Fail(e);
+    json list;
+    if (std::string e = ReadJsonFile(options.variations_path, &list); !e.empty()) return Fail(e);
+    if (std::string e = ReadVariations(list, options.variations_path, &variations); !e.empty()) return Fail(e);
   }
   std::vector<Run> runs;
   if (std::string e = PlanRuns(options, variations, &runs); !e.empty()) return Fail(e);

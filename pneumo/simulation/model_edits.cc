@@ -4,10 +4,7 @@
 #include <cstdio>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "pneumatic/pneumatic.h"
-#include "simulation/controller_config.h"
 
 namespace pneumatic {
 namespace {
@@ -87,9 +84,7 @@ std::string SetModelValue(mjModel* m, const std::string& key, double value) {
   return "";
 }
 
-std::string ParseVariations(const std::string& text, const std::string& source, std::vector<Variation>* out) {
-  nlohmann::json list;
-  if (std::string e = ParseJson(text, source, &list); !e.empty()) return e;
+std::string ReadVariations(const nlohmann::json& list, const std::string& source, std::vector<Variation>* out) {
   if (!list.is_array() || list.empty()) return source + ": expected a non-empty array of {\"name\", \"set\"}";
   std::vector<Variation> variations;
   for (const nlohmann::json& item : list) {

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include <mujoco/mujoco.h>
+#include <nlohmann/json.hpp>
 
 namespace pneumatic {
 
@@ -32,9 +33,9 @@ struct Variation {
   std::vector<std::pair<std::string, double>> parameters;  // key -> value, in the file's order
 };
 
-// Parses a variations file's text (its keys' forms and values are checked when they are set).
-// "" or the error naming `source`; *out is filled only on success.
-std::string ParseVariations(const std::string& text, const std::string& source, std::vector<Variation>* out);
+// Reads a variations file's JSON (ReadJsonFile or ParseJson give it; its keys' forms and values are
+// checked when they are set). "" or the error naming `source`; *out is filled only on success.
+std::string ReadVariations(const nlohmann::json& list, const std::string& source, std::vector<Variation>* out);
 
 // Sets a variation's values on m (a run's own copy). "" or the error naming the variation and key.
 std::string ApplyVariation(const Variation& variation, mjModel* m);

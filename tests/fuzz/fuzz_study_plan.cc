@@ -1,14 +1,18 @@
 // libFuzzer target: the JSON files that set a model's values by key. An input whose first character
-// is '[' is a variations file (`pneumo rollout --variations`, simulation/model_edits.h), any other a
-// study's plan (`pneumo study PLAN.json`, studies/plan.h). Each must be accepted or refused with an
-// error naming the file; a plan accepted must make at most kMaxPoints points, each random value inside
-// its range. Any crash, uncaught exception, leak, undefined behaviour or hang is a finding.
+// is '[' is a variations file (`pneumo rollout --variations`: ParseJson, then ReadVariations of
+// simulation/model_edits.h), any other a study's plan (`pneumo study PLAN.json`, studies/plan.h).
+// Each must be accepted or refused with an error naming the file; a plan accepted must make at most
+// kMaxPoints points, each random value inside its range. Any crash, uncaught exception, leak,
+// undefined behaviour or hang is a finding.
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
+#include "simulation/controller_config.h"
 #include "simulation/model_edits.h"
 #include "studies/plan.h"
 
@@ -25,8 +29,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace pneumatic::study;
   const std::string text(reinterpret_cast<const char*>(data), size);
   if (!text.empty() && text[0] == '[') {
+    nlohmann::json list;
     std::vector<pneumatic::Variation> variations;
-    const std::string error = pneumatic::ParseVariations(text, "fuzz/variations.json", &variations);
+    std::string error = pneumatic::ParseJson(text, "fuzz/variations.json", &list);
+    if (error.empty()) error = pneumatic::ReadVariations(list, "fuzz/variations.json", &variations);
     if (error.rfind("fuzz/variations.json", 0) != 0 && !error.empty()) Finding("an error that does not name the file: " + error);
     if (error.empty() && variations.empty()) Finding("an accepted variations file without a variation");
     return 0;
