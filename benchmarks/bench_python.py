@@ -68,7 +68,7 @@ def threaded_rollouts_per_second(run, count, threads):
     return count / (time.perf_counter() - start)
 
 
-def same_work_rows(pneumo, count, duration=5.0, repeats=3):
+def same_work_rows(pneumo, count, duration=5.0, repeats=5):
     """The binding's cost on the same work: `count` and 2 `count` closed-loop rollouts of rig C under PID
     (seeds 1.., `duration` s each, position noise), each written to a CSV, by one `pneumo rollout`
     process with a --seed per rollout and by one python3 process that imports pneumatic and calls
@@ -120,7 +120,7 @@ def same_work_rows(pneumo, count, duration=5.0, repeats=3):
 def main():
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--steps", type=int, default=100000, help="steps per stepping figure (the humanoid: a tenth)")
-    parser.add_argument("--rollouts", type=int, default=8, help="closed-loop rollouts per rollout figure (even)")
+    parser.add_argument("--rollouts", type=int, default=16, help="closed-loop rollouts per rollout figure (even)")
     parser.add_argument("--pneumo", default=os.environ.get("PNEUMO", os.path.join(HERE, "..", "build", "bin", "pneumo")))
     args = parser.parse_args()
 
