@@ -355,6 +355,39 @@ TEST(DiagnosisVerdict, ParametersOffAloneAreACalibrationNotAnEffect) {
   EXPECT_FALSE(d.unexplained.present) << d.unexplained.summary;
 }
 
+// A wrong nominal parameter that hides an effect on the model as given: the rig's damping is 40 %
+// below the model's 20 N s/m and its seals have Coulomb friction of 0.3 N (MuJoCo's frictionloss,
+// the candidate's own form). On the model as given, friction adds to a dissipation already too high
+// and is no evidence at all (its fit stays at zero); the calibration alone takes the damping to
+// about 16 N s/m and leaves a structured residual. Fitted together with the calibration (the wider
+// joint screening of diagnose.cc), friction is found, and with it both values.
+TEST(DiagnosisVerdict, AnEffectAWrongParameterHidesIsFittedWithTheCalibration) {
+  auto real = [](mjModel* m) {
+    m->dof_damping[0] = 12;
+    m->dof_frictionloss[0] = 0.3;
+  };
+  const log::Log train = RealRigCLog(1, 4.0, real), held = RealRigCLog(2, 4.0, real);
+  DiagnoseOptions o;
+  o.effects = {"friction"};
+  const Diagnosis d = Diagnose(kRigC, train, &held, o);
+  ASSERT_EQ(d.error, "");
+  ASSERT_FALSE(d.rounds.empty());
+  double as_given_ic = std::nan("");  // the Coulomb form's on the model as given
+  for (const CandidateResult& c : d.rounds[0].ranking) {
+    if (c.on_model_as_given && c.form == "Coulomb friction (the joint's frictionloss)") as_given_ic = c.delta_ic;
+  }
+  EXPECT_GT(as_given_ic, o.max_delta_ic);  // the case this test is about: no strong evidence as given
+  EXPECT_EQ(d.verdict, "friction") << d.unexplained.summary;
+  ASSERT_EQ(d.parameters.size(), 1u);  // the Coulomb form: its as-given dIC above, so the wider screening's
+  EXPECT_EQ(d.parameters[0].name, "cyl:joint x frictionloss");
+  EXPECT_NEAR(d.parameters[0].value, 0.3, 0.045);  // 15 %
+  double damping = std::nan("");
+  for (const CalibratedParameter& p : d.calibration) {
+    if (p.name == "cyl:joint x damping") damping = p.value;
+  }
+  EXPECT_NEAR(damping, 12, 1.8);  // 15 %
+}
+
 // Physics no candidate has: a spring of 2000 N/m pulling the piston to mid-stroke (a load the
 // library cannot form: no mass, friction, leak or sensor error acts as a force in x). The verdict
 // is unexplained, the residual is above the floor and depends on x, and it looks mechanical: the

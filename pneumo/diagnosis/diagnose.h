@@ -35,7 +35,9 @@
 // every effect is judged against the calibrated model. So that the calibration does not mask an
 // effect it can partly stand in for, the first round screens the candidates on the model as given
 // and fits its three strongest effects again together with the calibration, from the model's
-// values; only those joint fits may explain the calibrated model's gap.
+// values; only those joint fits may explain the calibrated model's gap. When none does and the
+// calibrated model's residual is structured and well above the noise floor, every other effect is
+// fitted together with the calibration too, from the calibrated values (diagnose.cc).
 // How far: the held-out gap before and after, per signal and as one number (effect_fit.h).
 #ifndef PNEUMATIC_DIAGNOSIS_DIAGNOSE_H_
 #define PNEUMATIC_DIAGNOSIS_DIAGNOSE_H_
