@@ -1,6 +1,7 @@
 #include "diagnosis/diagnose.h"
 
 #include <algorithm>
+#include <functional>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -693,18 +694,24 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
         }
         return false;
       };
-      std::vector<size_t> best_form;  // per effect with strong evidence, its form with the lowest dIC, by dIC
-      for (size_t i = 0; i < r.ranking.size(); ++i) {
-        const CandidateResult& c = r.ranking[i];
-        if (!(c.delta_ic < options.max_delta_ic) || shares_parameter(i)) continue;
-        auto same = std::find_if(best_form.begin(), best_form.end(), [&](size_t j) { return r.ranking[j].effect == c.effect; });
-        if (same == best_form.end()) {
-          best_form.push_back(i);
-        } else if (c.delta_ic < r.ranking[*same].delta_ic) {
-          *same = i;
+      // per effect with an entry that `take` accepts, its accepted form with the lowest dIC, by dIC
+      auto best_form_per_effect = [&](const std::function<bool(size_t)>& take) {
+        std::vector<size_t> forms;
+        for (size_t i = 0; i < r.ranking.size(); ++i) {
+          if (!take(i)) continue;
+          auto same = std::find_if(forms.begin(), forms.end(), [&](size_t j) { return r.ranking[j].effect == r.ranking[i].effect; });
+          if (same == forms.end()) {
+            forms.push_back(i);
+          } else if (r.ranking[i].delta_ic < r.ranking[*same].delta_ic) {
+            *same = i;
+          }
         }
-      }
-      std::sort(best_form.begin(), best_form.end(), [&](size_t a, size_t b) { return r.ranking[a].delta_ic < r.ranking[b].delta_ic; });
+        std::sort(forms.begin(), forms.end(), [&](size_t a, size_t b) { return r.ranking[a].delta_ic < r.ranking[b].delta_ic; });
+        return forms;
+      };
+      // per effect with strong evidence, its form with the lowest dIC, by dIC
+      std::vector<size_t> best_form =
+          best_form_per_effect([&](size_t i) { return r.ranking[i].delta_ic < options.max_delta_ic && !shares_parameter(i); });
       // on the model as given, parameters off make many effects look strong: the three best are
       // fitted with the calibration, from the model's values
       constexpr size_t kJointFromAsGiven = 3;
@@ -788,19 +795,12 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
           DescribeResidual(*held, held_gap, base_held, {}, {}, {}, {}, out.noise_floor, options.floor_multiple).present) {
         say("round " + std::to_string(round + 1) + ": the calibrated model's residual is structured and above the floor; " +
             "every other effect fitted together with the calibration");
-        std::vector<size_t> rest;  // per effect not fitted jointly yet, its form with the lowest dIC, by dIC
-        for (size_t i = 0; i < r.ranking.size(); ++i) {
+        // per effect not fitted jointly yet, its form with the lowest dIC, by dIC
+        const std::vector<size_t> rest = best_form_per_effect([&](size_t i) {
           const CandidateResult& c = r.ranking[i];
-          if (std::isnan(c.delta_ic) || c.with_found_effects || shares_parameter(i)) continue;
-          if (std::any_of(best_form.begin(), best_form.end(), [&](size_t j) { return r.ranking[j].effect == c.effect; })) continue;
-          auto same = std::find_if(rest.begin(), rest.end(), [&](size_t j) { return r.ranking[j].effect == c.effect; });
-          if (same == rest.end()) {
-            rest.push_back(i);
-          } else if (c.delta_ic < r.ranking[*same].delta_ic) {
-            *same = i;
-          }
-        }
-        std::sort(rest.begin(), rest.end(), [&](size_t a, size_t b) { return r.ranking[a].delta_ic < r.ranking[b].delta_ic; });
+          return !std::isnan(c.delta_ic) && !c.with_found_effects && !shares_parameter(i) &&
+                 std::none_of(best_form.begin(), best_form.end(), [&](size_t j) { return r.ranking[j].effect == c.effect; });
+        });
         const Candidate from_calibrated = JointCandidate(found_effects, -1);
         for (size_t i : rest) fit_jointly(i, from_calibrated, options.max_iterations);
       }
