@@ -1,6 +1,7 @@
 // The diagnosis' verdict on real logs (issue 55): the noise floor, the structure of what a model
 // leaves, the rejection of implausible or undetermined fits, and the calibration of the model's
 // nominal parameters, each against a number worked out by hand or a known truth.
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <random>
@@ -281,7 +282,11 @@ TEST(Calibration, FitsTheModelsNominalParametersWithinPlausibleRanges) {
   EXPECT_DOUBLE_EQ(cal.parameters[0].nominal, 0.72);
   EXPECT_DOUBLE_EQ(cal.parameters[0].lower, 0.7 * 0.72);
   EXPECT_DOUBLE_EQ(cal.parameters[1].upper, 1.45e-6);
-  EXPECT_DOUBLE_EQ(cal.parameters[3].upper, 1.7);  // 1.3 x 1.4 capped at the key's range
+  // the index over its physical range: isothermal 1 to adiabatic gamma = 1.4, a value at either kept
+  EXPECT_DOUBLE_EQ(cal.parameters[3].lower, 1.0);
+  EXPECT_DOUBLE_EQ(cal.parameters[3].upper, 1.4);
+  EXPECT_TRUE(cal.parameters[3].ends_are_physical_limits);
+  EXPECT_FALSE(cal.parameters[0].ends_are_physical_limits);
   EXPECT_DOUBLE_EQ(cal.parameters[4].lower, 0.55 * 20);
   // each applies to the model: both chambers' coefficient, one chamber's dead volume
   ModelPtr edited = LoadEditedModel(kRigC, {}, &error);
@@ -353,6 +358,29 @@ TEST(DiagnosisVerdict, ParametersOffAloneAreACalibrationNotAnEffect) {
   EXPECT_NEAR(d.calibration[4].value, 25, 2.5);  // 10 %
   EXPECT_LT(d.heldout_gap_calibrated, 0.7 * d.heldout_gap_before);
   EXPECT_FALSE(d.unexplained.present) << d.unexplained.summary;
+}
+
+// A polytropic index at a physical limit is a value, not a sign of missing physics: a rig whose
+// chambers are isothermal (n = 1, the lower end of the index's range) against the model's adiabatic
+// 1.4. The calibration keeps the index at 1 where it would set a parameter at the bound of a
+// plausible range back to the model's value (and leave the difference to an effect).
+TEST(DiagnosisVerdict, AnIndexAtAPhysicalLimitIsKept) {
+  auto real = [](mjModel* m) {
+    std::string error;
+    for (const char* key : {"P.polytropic_index", "N.polytropic_index"}) ASSERT_TRUE(SetParameter(m, "cyl", key, 1.0, &error)) << error;
+  };
+  const log::Log train = RealRigCLog(1, 4.0, real), held = RealRigCLog(2, 4.0, real);
+  DiagnoseOptions o;
+  o.effects = {"payload"};
+  const Diagnosis d = Diagnose(kRigC, train, &held, o);
+  ASSERT_EQ(d.error, "");
+  ASSERT_EQ(d.calibration_status.rfind("fitted", 0), 0u) << d.calibration_status;
+  EXPECT_EQ(d.calibration_status.find("polytropic_index"), std::string::npos) << d.calibration_status;
+  const auto index = std::find_if(d.calibration.begin(), d.calibration.end(),
+                                  [](const CalibratedParameter& p) { return p.name == "cyl:polytropic_index"; });
+  ASSERT_NE(index, d.calibration.end());
+  EXPECT_NEAR(index->value, 1.0, 0.02) << d.calibration_status;
+  EXPECT_EQ(d.verdict, "none");
 }
 
 // A wrong nominal parameter that hides an effect on the model as given: the rig's damping is 40 %

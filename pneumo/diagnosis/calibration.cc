@@ -6,6 +6,8 @@
 namespace pneumatic::diagnosis {
 namespace {
 
+constexpr double kAirHeatCapacityRatio = 1.4;  // diatomic ideal gas, cp / cv = 7 / 5
+
 // one key of both chambers ("P.<key>" and "N.<key>") fitted as one value, from the P chamber's,
 // within [1 - spread, 1 + spread] times it and the key's own range; none if the key does not apply
 void AddBothChambers(const mjModel* m, const std::string& cylinder, const std::string& key, double spread, Candidate* c) {
@@ -60,7 +62,19 @@ Candidate CalibrationCandidate(const mjModel* m, const Measurements& meas) {
     if (flow == "iso6358" || flow == "sanville") AddBothChambers(m, n, "critical_ratio", kNarrow, &c);
     AddChamber(m, n, "P.dead_volume", kWide, &c);
     AddChamber(m, n, "N.dead_volume", kWide, &c);
+    // the polytropic index over its physical range: a polytropic process of a gas lies between
+    // isothermal (n = 1) and adiabatic (n = gamma, the cylinder's heat_capacity_ratio; air's where
+    // the model's flow law and thermal model have none of their own: an iso6358 valve,
+    // thermal_model=polytropic). An index above gamma is no process of the gas and stands in for
+    // some other effect (rig A's 1.2 went to 1.42-1.51 on the independent suite's friction, heat and
+    // supply logs); one at either end is a value, kept (EffectParameter::ends_are_physical_limits)
+    const size_t index = c.parameters.size();
     AddBothChambers(m, n, "polytropic_index", kNarrow, &c);
+    if (c.parameters.size() > index) {
+      const double gamma = GetParameter(m, n, "heat_capacity_ratio", &error).value_or(kAirHeatCapacityRatio);
+      EffectParameter& p = c.parameters[index];
+      p.lower = 1, p.upper = std::max(gamma, p.nominal), p.ends_are_physical_limits = true;
+    }
     if (cyl.joint >= 0 && m->dof_damping[m->jnt_dofadr[cyl.joint]] > 0) {
       const int dof = m->jnt_dofadr[cyl.joint];
       const double b = m->dof_damping[dof];

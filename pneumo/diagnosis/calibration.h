@@ -11,10 +11,12 @@
 // mass: a different mass is the effect `payload`.
 //
 // Each is fitted as a deviation from the model's value (EffectParameter::nominal) within a
-// plausible range around it: +-30 % for the flow coefficient, the critical ratio and the
-// polytropic index (within the key's own range), +-45 % for the dead volumes and the damping,
-// half as much again as the spread the issue expects of a real rig (+-20 %, +-30 %). A value at its
-// bound says that the data ask for more than a calibration (CalibrationProblem).
+// plausible range around it: +-30 % for the flow coefficient and the critical ratio (within the
+// key's own range), +-45 % for the dead volumes and the damping, half as much again as the spread
+// the issue expects of a real rig (+-20 %, +-30 %). A value at its bound says that the data ask
+// for more than a calibration (diagnose.cc, Calibrate). The polytropic index is fitted over its
+// physical range instead, from 1 (isothermal) to the gas' ratio of specific heats (adiabatic), and
+// a value at either end is kept.
 #ifndef PNEUMATIC_DIAGNOSIS_CALIBRATION_H_
 #define PNEUMATIC_DIAGNOSIS_CALIBRATION_H_
 

@@ -79,6 +79,11 @@ struct EffectParameter {
   // their upper bounds); NaN: that one. A fitted value at this end of the range means the effect is
   // absent; at the other end, a magnitude the range cuts short (diagnose.cc, Implausible)
   double absent = std::numeric_limits<double>::quiet_NaN();
+  // true where both ends of the range are physical limits, not magnitudes a plausible range cuts
+  // short: the calibration keeps a value there (the polytropic index at 1, isothermal, or at the gas'
+  // ratio of specific heats, adiabatic), where it leaves another parameter at a bound at the model's
+  // value (diagnose.cc, Calibrate)
+  bool ends_are_physical_limits = false;
   // fitted as z = ln(value / scale) (lower > 0): for magnitudes known only to a decade or two
   // (conductances, volumes), where a linear step either crawls or overshoots
   bool logarithmic = false;

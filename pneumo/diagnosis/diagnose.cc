@@ -236,7 +236,10 @@ void Calibrate(const std::string& model_path, const Measurements& train, const G
   CandidateFit fit = FitCandidate(model_path, Scenario{}, calibration, train, fo);
   // a parameter that runs to the bound of its plausible range asks for more than a calibration (a
   // tube's volume beside a dead volume, a leak's pressure drop taken for a smaller index): it stays
-  // at the model's value, and the rest is fitted again without it, so that the effect shows
+  // at the model's value, and the rest is fitted again without it, so that the effect shows. Not
+  // at a physical limit (EffectParameter::ends_are_physical_limits): an adiabatic gas is a value.
+  // Set back to the model's 1.2 instead, the index of the independent suite's A05 (rig A, LuGre
+  // friction) left the friction to be taken for a leak
   std::string left_nominal;
   for (int pass = 0; pass < 2 && fit.error.empty(); ++pass) {
     Candidate kept = calibration;
@@ -244,7 +247,7 @@ void Calibrate(const std::string& model_path, const Measurements& train, const G
     std::vector<double> values;
     for (size_t i = 0; i < calibration.parameters.size(); ++i) {
       const EffectParameter& p = calibration.parameters[i];
-      if (BoundReached(p, fit.values[i]).empty()) {
+      if (p.ends_are_physical_limits || BoundReached(p, fit.values[i]).empty()) {
         kept.parameters.push_back(p), values.push_back(fit.values[i]);
       } else {
         left_nominal += (left_nominal.empty() ? "" : ", ") + p.name + Fixed(" (%.3g ", fit.values[i]) + p.unit + ")";
@@ -523,6 +526,12 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     }
     say(Fixed("noise floor of the held-out log: %.4f", out.noise_floor.floor) +
         (out.noise_floor.error.empty() ? std::string() : " (the sensor noise alone: " + out.noise_floor.error + ")"));
+    if (options.progress) {  // for the reader of the progress only: where the effects start from
+      const Assessment a = Assess(calibrated.get(), floor_sensors, *held, held_gap, out.regimes);
+      say("the calibrated model's residual: " + DescribeResidual(*held, held_gap, a.full, a.pneumatic_gap, a.mechanical_gap, out.regimes.names,
+                                                                a.regime_gap, out.noise_floor, options.floor_multiple)
+                                                    .summary);
+    }
   }
   auto effect_count = [&] { return static_cast<int>(EffectsOf(found_effects).size()); };
   const int max_rounds = 2 * options.max_effects;  // a dropped effect frees a place; bounded all the same
@@ -904,6 +913,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
                                      out.after.regime_gap, out.noise_floor, options.floor_multiple);
   out.verdict = !out.effects.empty() ? out.effects.front() : out.unexplained.present ? "unexplained" : "none";
   say("verdict: " + out.verdict + (out.unexplained.present && !out.effects.empty() ? " (a structured residual remains unexplained)" : ""));
+  say("the verdict's model's residual: " + out.unexplained.summary);
   out.alternatives = Alternatives(out, options);
   out.heldout = std::move(*held);
   out.seconds = Seconds(t0);
