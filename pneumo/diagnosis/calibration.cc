@@ -9,11 +9,12 @@ namespace {
 constexpr double kAirHeatCapacityRatio = 1.4;  // diatomic ideal gas, cp / cv = 7 / 5
 
 // one key of both chambers ("P.<key>" and "N.<key>") fitted as one value, from the P chamber's,
-// within [1 - spread, 1 + spread] times it and the key's own range; none if the key does not apply
-void AddBothChambers(const mjModel* m, const std::string& cylinder, const std::string& key, double spread, Candidate* c) {
+// within [1 - spread, 1 + spread] times it and the key's own range: the parameter added, or null
+// if the key does not apply
+EffectParameter* AddBothChambers(const mjModel* m, const std::string& cylinder, const std::string& key, double spread, Candidate* c) {
   std::string error;
   const std::optional<double> value = GetParameter(m, cylinder, "P." + key, &error);
-  if (!value || !(*value > 0)) return;
+  if (!value || !(*value > 0)) return nullptr;
   double lower = (1 - spread) * *value, upper = (1 + spread) * *value;
   for (const ParameterDoc& doc : Parameters()) {
     if (doc.key != key) continue;
@@ -28,7 +29,9 @@ void AddBothChambers(const mjModel* m, const std::string& cylinder, const std::s
       return SetParameter(model, cylinder, "P." + key, v, &why) && SetParameter(model, cylinder, "N." + key, v, &why) ? std::string() : why;
     };
     c->parameters.push_back(p);
+    return &c->parameters.back();
   }
+  return nullptr;
 }
 
 // one chamber's key ("P.dead_volume"), within [1 - spread, 1 + spread] times the model's value
@@ -68,12 +71,9 @@ Candidate CalibrationCandidate(const mjModel* m, const Measurements& meas) {
     // thermal_model=polytropic). An index above gamma is no process of the gas and stands in for
     // some other effect (rig A's 1.2 went to 1.42-1.51 on the independent suite's friction, heat and
     // supply logs); one at either end is a value, kept (EffectParameter::ends_are_physical_limits)
-    const size_t index = c.parameters.size();
-    AddBothChambers(m, n, "polytropic_index", kNarrow, &c);
-    if (c.parameters.size() > index) {
+    if (EffectParameter* p = AddBothChambers(m, n, "polytropic_index", kNarrow, &c)) {
       const double gamma = GetParameter(m, n, "heat_capacity_ratio", &error).value_or(kAirHeatCapacityRatio);
-      EffectParameter& p = c.parameters[index];
-      p.lower = 1, p.upper = std::max(gamma, p.nominal), p.ends_are_physical_limits = true;
+      p->lower = 1, p->upper = std::max(gamma, p->nominal), p->ends_are_physical_limits = true;
     }
     if (cyl.joint >= 0 && m->dof_damping[m->jnt_dofadr[cyl.joint]] > 0) {
       const int dof = m->jnt_dofadr[cyl.joint];
