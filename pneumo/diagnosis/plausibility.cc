@@ -30,16 +30,32 @@ double AbsentValue(const EffectParameter& p) {
   return deviation ? p.nominal : p.lower;
 }
 
+std::string ValueAtAFarBound(const Candidate& c, const std::vector<double>& values) {
+  for (size_t i = 0; i < c.parameters.size() && i < values.size(); ++i) {
+    const EffectParameter& p = c.parameters[i];
+    if (p.sizes_the_effect_only) continue;  // the form is the effect, whatever this value
+    const double value = values[i], absent = AbsentValue(p);
+    const std::string bound = BoundReached(p, value);
+    const bool at_absent_end = (bound == "at its lower bound" && absent <= p.lower) || (bound == "at its upper bound" && absent >= p.upper);
+    if (!bound.empty() && !at_absent_end && value != absent) return p.name + " " + bound + Fixed(" (%.3g ", value) + p.unit + ")";
+  }
+  return "";
+}
+
 std::string Implausible(const Candidate& c, const std::vector<double>& values, const std::vector<double>& standard_errors) {
+  if (std::string far = ValueAtAFarBound(c, values); !far.empty()) return far;
   bool any_present = false;
   std::string undetermined;  // the first parameter off the model without the effect by less than its standard error
   for (size_t i = 0; i < c.parameters.size() && i < values.size() && i < standard_errors.size(); ++i) {
     const EffectParameter& p = c.parameters[i];
+    if (p.sizes_the_effect_only) {  // the form is the effect, whatever this value
+      any_present = true;
+      continue;
+    }
     const double value = values[i], absent = AbsentValue(p);
     const std::string bound = BoundReached(p, value);
     const bool at_absent_end = (bound == "at its lower bound" && absent <= p.lower) || (bound == "at its upper bound" && absent >= p.upper);
     if (at_absent_end || value == absent) continue;
-    if (!bound.empty()) return p.name + " " + bound + Fixed(" (%.3g ", value) + p.unit + ")";
     if (!(standard_errors[i] <= std::fabs(value - absent))) {
       if (undetermined.empty()) {
         undetermined = p.name + " not determined by the data" + Fixed(" (%.3g", value) + Fixed(" +- %.2g ", standard_errors[i]) + p.unit + ")";

@@ -18,6 +18,11 @@ std::string BoundReached(const EffectParameter& p, double value);
 // nominal of a linear parameter fitted as a deviation from it, else the lower bound.
 double AbsentValue(const EffectParameter& p);
 
+// The first parameter of c whose value in `values` lies at the bound of its range away from the
+// model without the effect (a physically absurd magnitude, or one the range cuts short), as
+// "name at its lower bound (value unit)"; "" if none. Implausible's first rule.
+std::string ValueAtAFarBound(const Candidate& c, const std::vector<double>& values);
+
 // Why candidate c, fitted to `values` with `standard_errors` (per parameter, in its unit: the
 // diagnosis passes the conditional ones, CandidateFit::conditional_standard_errors, so that two
 // parameters that trade off are not each called undetermined), may not explain a gap; "" if it
@@ -30,7 +35,8 @@ double AbsentValue(const EffectParameter& p);
 // found with a leak to the atmosphere of 2e-12 +- 4e-12 kg/(s Pa) is a leak across the piston (on
 // rig A, refusing the whole effect for that path refused the laminar leak of bench_diagnose). (On
 // a rig C log of LuGre friction, before this rule, a valve dead time of 0.1 ms +- 12 ms at its
-// lower bound, its only parameter, was accepted after the friction.)
+// lower bound, its only parameter, was accepted after the friction.) A parameter that only sizes an
+// effect its form makes present (EffectParameter::sizes_the_effect_only) is neither: the form is.
 std::string Implausible(const Candidate& c, const std::vector<double>& values, const std::vector<double>& standard_errors);
 
 }  // namespace pneumatic::diagnosis

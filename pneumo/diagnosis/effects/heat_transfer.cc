@@ -16,12 +16,20 @@ void AddEnergyEquation(const mjModel* m, const CylinderSeries& cyl, Candidate* c
   const std::string& n = cyl.info.name;
   const double volume = Parameter(m, n, "P.dead_volume", 1e-6) + Parameter(m, n, "P.area", 1e-4) * cyl.stroke / 2;
   double conductance = 3e5 * volume / (Parameter(m, n, "temperature", 293) * 0.4) / 1.0;
-  if (Choice(m, n, "thermal_model") == "energy") {
+  const bool refit = Choice(m, n, "thermal_model") == "energy";
+  if (refit) {
     conductance = Parameter(m, n, "P.wall_heat_conductance", conductance);  // refit the model's own
   } else {
     c->edits.push_back({n, {"TP", "TN"}, {}, {}, {{"thermal_model", "energy"}, {"wall_heat_conductance", Number(conductance)}}});
   }
   c->parameters.push_back(KeyParameter(n, "wall_heat_conductance", conductance, 1e-3 * conductance, 1e3 * conductance, conductance, true));
+  if (refit) {
+    c->parameters.back().absent = conductance;  // the model's own walls
+  } else {
+    // the energy equation in place of the polytropic one is the effect: no wall conductance is the
+    // polytropic model (adiabatic walls still carry each chamber's gas temperature as a state)
+    c->parameters.back().sizes_the_effect_only = true;
+  }
 }
 
 }  // namespace
