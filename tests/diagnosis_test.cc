@@ -120,6 +120,26 @@ TEST(DiagnosisInput, RefusesWhatItCannotDiagnoseNamingTheProblem) {
   EXPECT_NE(error.find("real.csv:302:"), std::string::npos) << error;
 }
 
+// The fits' windows: every other one up to a budget of 30, then spread over the whole log. 0.2 s
+// windows after a 20 ms warm-up at 100 Hz: a 10 s log has 49 (the stride alone keeps 25), a 20 s
+// log 99, of which every fourth is kept (ceil(99 / 30) = 4): 25, the first at row 2, the last at
+// row 2 + 20 * 96.
+TEST(DiagnosisPrediction, FitWindowsKeepTheirStrideUpToTheBudgetThenSpreadOut) {
+  const Windows ten = MakeWindows(2 + 20 * 49 + 1, 20, 2), twenty = MakeWindows(2 + 20 * 99 + 1, 20, 2);
+  ASSERT_EQ(ten.starts.size(), 49u);
+  ASSERT_EQ(twenty.starts.size(), 99u);
+  EXPECT_EQ(EveryNthWindow(ten, 2, 30).starts.size(), 25u);
+  EXPECT_EQ(EveryNthWindow(ten, 2, 30).starts, EveryNthWindow(ten, 2, 0).starts);
+  const Windows kept = EveryNthWindow(twenty, 2, 30);
+  ASSERT_EQ(kept.starts.size(), 25u);
+  EXPECT_EQ(kept.starts.front(), 2);
+  EXPECT_EQ(kept.starts.back(), 2 + 20 * 96);
+  EXPECT_EQ(kept.starts[1] - kept.starts[0], 4 * 20);
+  EXPECT_EQ(kept.horizon_rows, 20);
+  EXPECT_EQ(kept.warmup_rows, 2);
+  EXPECT_EQ(EveryNthWindow(twenty, 2, 0).starts.size(), 50u);  // no budget: the stride alone
+}
+
 TEST(DiagnosisVelocity, ExactForACubicAndItsNoiseFollowsTheFilter) {
   // a local cubic fit differentiates a cubic exactly, at the ends too
   std::vector<double> x;

@@ -88,6 +88,11 @@ struct DiagnoseOptions {
   // fit on every fit_window_stride-th window of the training log (1: all; 2: every other window,
   // half the cost, windows still spread over the whole log); the held-out score uses every window
   int fit_window_stride = 2;
+  // ... and on at most max_fit_windows of them (0: no limit), the stride raised as far as needed:
+  // a longer training log then costs the fits no more, its windows spread over all of it. 30
+  // windows of 0.2 s leave the stride at 2 on logs up to 12 s (both benchmark suites' training
+  // logs, whose figures were measured so) and fit a 20 s log on every fourth window
+  int max_fit_windows = 30;
   // parameters before effects (calibration.h): the model's nominal parameters are re-fitted on the
   // training log, with up to this many iterations, before any effect is tried (0: not calibrated)
   int calibration_iterations = 20;

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <deque>
 #include <limits>
+#include <memory>
 
 #include <ceres/ceres.h>
 #include <glog/logging.h>
@@ -28,68 +30,106 @@ double ToVariable(const EffectParameter& p, double value) {
 }
 
 // Ceres' view of a candidate's fit: one block z (ToValue: value = nominal + scale z, or scale e^z),
-// the normalised residuals of the valid rows. Remembers the last point, because Ceres evaluates the
-// residuals of a step and then, once it accepts it, residuals and Jacobian at the same point.
+// the normalised residuals of the valid rows. Every point is given as z, and the points simulated
+// last are remembered by z, exactly: Ceres evaluates a step's residuals and then, once it accepts
+// it, residuals and Jacobian at the same point; the fit starts at the point the scan chose; and the
+// standard errors want residuals, gap and (for the linear parameters, whose steps are Ceres') the
+// Jacobian where Ceres accepted its last step. Each would otherwise be a simulation of the log.
 class EffectCost : public ceres::CostFunction {
  public:
   EffectCost(const mjModel* base, const SignalModel& sensors, const Candidate& c, const Measurements& meas,
-             const FitOptions& options, int residuals)
+             const FitOptions& options)
       : base_(base), sensors_(sensors), c_(c), meas_(meas), options_(options),
         scratch_(mj_copyModel(nullptr, base), mj_deleteModel) {
-    set_num_residuals(residuals);
     mutable_parameter_block_sizes()->push_back(static_cast<int>(c.parameters.size()));
   }
 
-  // residuals at values (in units); "" or why not
-  std::string Residuals(const std::vector<double>& values, Eigen::VectorXd* r) const {
+  // the residual count, from the first point's evaluation (a later point must predict as many rows)
+  void SetResidualCount(int residuals) { set_num_residuals(residuals); }
+
+  // the values (in units) of the optimiser's point z
+  std::vector<double> Values(const std::vector<double>& z) const {
+    std::vector<double> values(z.size());
+    for (size_t i = 0; i < z.size(); ++i) values[i] = ToValue(c_.parameters[i], z[i]);
+    return values;
+  }
+
+  // residuals and gap (Evaluated::gap) at the point z; "" or why not
+  std::string Residuals(const std::vector<double>& z, Eigen::VectorXd* r, double* gap = nullptr) const {
+    for (auto it = remembered_.begin(); it != remembered_.end(); ++it) {
+      if (it->z != z) continue;
+      *r = it->r;
+      if (gap) *gap = it->gap;
+      return "";
+    }
     ++evaluations_;
     mj_copyModel(scratch_.get(), base_);
     SignalModel sensors = sensors_;
-    if (std::string e = ApplyValues(c_, values, scratch_.get(), &sensors); !e.empty()) return e;
+    if (std::string e = ApplyValues(c_, Values(z), scratch_.get(), &sensors); !e.empty()) return e;
     Evaluated ev = diagnosis::Evaluate(scratch_.get(), sensors, meas_, options_.gap);
     if (!ev.error.empty()) return ev.error;
-    if (ev.residuals.size() != num_residuals()) return "the number of predicted rows changed";
-    *r = ev.residuals;
+    if (num_residuals() > 0 && ev.residuals.size() != num_residuals()) return "the number of predicted rows changed";
+    if (series_starts_.empty()) series_starts_ = ev.series_starts;
+    Remember(z, ev.residuals, ev.gap);
+    *r = std::move(ev.residuals);
+    if (gap) *gap = ev.gap;
     return "";
+  }
+
+  // keeps the point among the remembered ones (the most recent first)
+  void Remember(const std::vector<double>& z, const Eigen::VectorXd& r, double gap) const {
+    remembered_.push_front({z, r, gap});
+    if (remembered_.size() > Capacity()) remembered_.pop_back();
   }
 
   bool Evaluate(double const* const* parameters, double* residuals, double** jacobians) const override {
     const size_t k = c_.parameters.size();
-    std::vector<double> values(k);
-    for (size_t i = 0; i < k; ++i) values[i] = ToValue(c_.parameters[i], parameters[0][i]);
+    const std::vector<double> z(parameters[0], parameters[0] + k);
     Eigen::VectorXd r;
-    if (values == last_values_ && last_r_.size() == num_residuals()) {
-      r = last_r_;
-    } else if (std::string e = Residuals(values, &r); !e.empty()) {
+    if (std::string e = Residuals(z, &r); !e.empty()) {
       last_error_ = e;
       return false;
     }
-    last_values_ = values, last_r_ = r;
     Eigen::Map<Eigen::VectorXd>(residuals, num_residuals()) = r;
     if (jacobians && jacobians[0]) {
       Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(jacobians[0], num_residuals(),
                                                                                              static_cast<Eigen::Index>(k));
       for (size_t i = 0; i < k; ++i) {
-        const EffectParameter& p = c_.parameters[i];
-        double dz = options_.relative_step;
-        if (ToValue(p, parameters[0][i] + dz) > p.upper) dz = -dz;
-        std::vector<double> shifted = values;
-        shifted[i] = ToValue(p, parameters[0][i] + dz);
+        const std::vector<double> shifted = Shifted(z, i);
         Eigen::VectorXd rh;
         if (std::string e = Residuals(shifted, &rh); !e.empty()) {
-          last_error_ = "finite difference of " + p.name + ": " + e;
+          last_error_ = "finite difference of " + c_.parameters[i].name + ": " + e;
           return false;
         }
-        J.col(static_cast<Eigen::Index>(i)) = (rh - r) / dz;
+        J.col(static_cast<Eigen::Index>(i)) = (rh - r) / (shifted[i] > z[i] ? options_.relative_step : -options_.relative_step);
       }
     }
     return true;
   }
 
+  // z with its i-th variable moved by the finite-difference step, backwards where forwards would
+  // leave the parameter's range
+  std::vector<double> Shifted(const std::vector<double>& z, size_t i) const {
+    const EffectParameter& p = c_.parameters[i];
+    std::vector<double> shifted = z;
+    shifted[i] = z[i] + options_.relative_step;
+    if (ToValue(p, shifted[i]) > p.upper) shifted[i] = z[i] - options_.relative_step;
+    return shifted;
+  }
+
   int evaluations() const { return evaluations_; }
   const std::string& last_error() const { return last_error_; }
+  const std::vector<int>& series_starts() const { return series_starts_; }
 
  private:
+  struct Point {
+    std::vector<double> z;
+    Eigen::VectorXd r;
+    double gap;
+  };
+  // a point, its Jacobian's shifted points and the step tried after it, twice over
+  size_t Capacity() const { return 2 * (c_.parameters.size() + 2); }
+
   const mjModel* base_;
   SignalModel sensors_;
   const Candidate& c_;
@@ -97,21 +137,35 @@ class EffectCost : public ceres::CostFunction {
   const FitOptions& options_;
   ModelPtr scratch_;
   mutable int evaluations_ = 0;
-  mutable std::vector<double> last_values_;
-  mutable Eigen::VectorXd last_r_;
+  mutable std::deque<Point> remembered_;
+  mutable std::vector<int> series_starts_;
   mutable std::string last_error_;
 };
+
+// A point of a fit with its residuals, gap and sum of squares: where a scan starts and what it returns.
+struct FitPoint {
+  std::vector<double> z;  // the optimiser's variables (EffectCost)
+  Eigen::VectorXd r;
+  double gap = 0, ss = 0;
+};
+
+// `trial` in place of *best if the model predicts it with a smaller sum of squares; a point the
+// model refuses counts as no better
+void KeepIfBetter(const EffectCost& cost, const std::vector<double>& trial, FitPoint* best) {
+  FitPoint p{trial, {}, 0, 0};
+  if (!cost.Residuals(trial, &p.r, &p.gap).empty()) return;
+  p.ss = p.r.squaredNorm();
+  if (p.ss < best->ss) *best = std::move(p);
+}
 
 // The coarse scan of FitOptions::scan_points: the logarithmic parameters at `points` positions
 // t = (j + 1/2) / points along their log ranges (value = lower (upper / lower)^t). Parameters of
 // one kind (one unit, such as a candidate's three leak areas) move together; kinds are scanned on
 // a grid of `grid_points` per kind (a tank's volume and its line's conductance: 6 x 6), since a
 // volume says nothing about the conductance it goes with; then each parameter of a kind of several
-// alone, from the best point. The others are held. Returns the start
-// for the fit: the best point, or the initial values where no point improves the sum of squares
-// *initial_ss (updated to the best point's); a point the model refuses counts as no better.
-std::vector<double> ScanLogarithmic(const EffectCost& cost, const Candidate& c, const std::vector<double>& initial,
-                                    double* initial_ss, int points, int grid_points) {
+// alone, from the best point. The others are held. Returns the start for the fit: the best point,
+// or `initial` where no point improves its sum of squares.
+FitPoint ScanLogarithmic(const EffectCost& cost, const Candidate& c, const FitPoint& initial, int points, int grid_points) {
   std::vector<std::string> kinds;       // the units of the logarithmic parameters, in order
   std::vector<int> kind_of(c.parameters.size(), -1);
   for (size_t i = 0; i < c.parameters.size(); ++i) {
@@ -123,37 +177,33 @@ std::vector<double> ScanLogarithmic(const EffectCost& cost, const Candidate& c, 
   if (kinds.empty() || points <= 0) return initial;  // no scan
   if (kinds.size() > 1) points = grid_points;
   if (points <= 0) return initial;
-  std::vector<double> best = initial;
-  double& best_ss = *initial_ss;
-  // the j-th of the `points` positions along p's log range
-  auto position = [points](const EffectParameter& p, int j) { return p.lower * std::pow(p.upper / p.lower, (j + 0.5) / points); };
-  auto keep_if_better = [&](const std::vector<double>& trial) {
-    Eigen::VectorXd r;
-    if (!cost.Residuals(trial, &r).empty()) return;
-    if (const double ss = r.squaredNorm(); ss < best_ss) best_ss = ss, best = trial;
+  FitPoint best = initial;
+  // the optimiser's variable at the j-th of the `points` positions along p's log range
+  auto position = [points](const EffectParameter& p, int j) {
+    return ToVariable(p, p.lower * std::pow(p.upper / p.lower, (j + 0.5) / points));
   };
   int grid = 1;
   for (size_t k = 0; k < kinds.size(); ++k) grid *= points;
   for (int g = 0; g < grid; ++g) {
-    std::vector<double> trial = initial;
+    std::vector<double> trial = initial.z;
     for (size_t i = 0; i < c.parameters.size(); ++i) {
       if (kind_of[i] < 0) continue;
       int j = g;  // the digit of kind_of[i] in base `points`
       for (int k = 0; k < kind_of[i]; ++k) j /= points;
       trial[i] = position(c.parameters[i], j % points);
     }
-    keep_if_better(trial);
+    KeepIfBetter(cost, trial, &best);
   }
   // then each parameter of a kind that has several alone, at the same points, from the best so far
   // (one sweep): an effect need not act alike in every place (one chamber's leak to the
   // atmosphere, none from the other), and the joint scan sets them all alike
   for (size_t i = 0; i < c.parameters.size(); ++i) {
     if (kind_of[i] < 0 || std::count(kind_of.begin(), kind_of.end(), kind_of[i]) < 2) continue;
-    const std::vector<double> from = best;
+    const std::vector<double> from = best.z;
     for (int j = 0; j < points; ++j) {
       std::vector<double> trial = from;
       trial[i] = position(c.parameters[i], j);
-      keep_if_better(trial);
+      KeepIfBetter(cost, trial, &best);
     }
   }
   return best;
@@ -161,21 +211,22 @@ std::vector<double> ScanLogarithmic(const EffectCost& cost, const Candidate& c, 
 
 // The grid scan of EffectParameter::scan_step: the parameters that have one at the same offset
 // from their lower bounds, in steps of the first one's scan_step up to its upper bound; the others
-// held. Returns the best point, or `start` where none improves on *start_ss (updated).
-std::vector<double> ScanGrid(const EffectCost& cost, const Candidate& c, const std::vector<double>& start, double* start_ss) {
+// held. Returns the best point, or `start` where none improves on its sum of squares.
+FitPoint ScanGrid(const EffectCost& cost, const Candidate& c, const FitPoint& start) {
   std::vector<size_t> scanned;
   for (size_t i = 0; i < c.parameters.size(); ++i) {
     if (c.parameters[i].scan_step > 0) scanned.push_back(i);
   }
   if (scanned.empty()) return start;
   const EffectParameter& first = c.parameters[scanned[0]];
-  std::vector<double> best = start;
+  FitPoint best = start;
   for (int j = 0; first.lower + j * first.scan_step <= first.upper; ++j) {
-    std::vector<double> trial = start;
-    for (size_t i : scanned) trial[i] = std::min(c.parameters[i].lower + j * first.scan_step, c.parameters[i].upper);
-    Eigen::VectorXd r;
-    if (!cost.Residuals(trial, &r).empty()) continue;
-    if (const double ss = r.squaredNorm(); ss < *start_ss) *start_ss = ss, best = trial;
+    std::vector<double> trial = start.z;
+    for (size_t i : scanned) {
+      const EffectParameter& p = c.parameters[i];
+      trial[i] = ToVariable(p, std::min(p.lower + j * first.scan_step, p.upper));
+    }
+    KeepIfBetter(cost, trial, &best);
   }
   return best;
 }
@@ -292,34 +343,29 @@ CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, c
   ModelPtr m = BuildScenario(model_path, with_edits, meas, &sensors, &fit.error);
   if (!m) return fit;
   const size_t k = c.parameters.size();
-  std::vector<double> initial(k);
-  for (size_t i = 0; i < k; ++i) initial[i] = c.parameters[i].initial;
-  // the residual count: the rows the initial model predicts
+  // the residual count: the rows the initial point predicts
+  auto owned = std::make_unique<EffectCost>(m.get(), sensors, c, meas, options);
+  EffectCost* cost = owned.get();
+  FitPoint initial;
+  for (const EffectParameter& p : c.parameters) initial.z.push_back(ToVariable(p, p.initial));
+  if (std::string e = cost->Residuals(initial.z, &initial.r, &initial.gap); !e.empty()) {
+    fit.error = "the initial values: " + e;
+    return fit;
+  }
+  fit.train_gap_before = initial.gap;
+  if (initial.r.size() == 0) {
+    fit.error = "no predicted rows";
+    return fit;
+  }
+  cost->SetResidualCount(static_cast<int>(initial.r.size()));
+  initial.ss = initial.r.squaredNorm();
+  FitPoint start = ScanLogarithmic(*cost, c, initial, options.scan_points, options.scan_grid_points);
+  if (options.scan_points > 0) start = ScanGrid(*cost, c, start);
+  cost->Remember(start.z, start.r, start.gap);  // where Ceres starts
+  std::vector<double> z = start.z;
   {
-    ModelPtr copy(mj_copyModel(nullptr, m.get()), mj_deleteModel);
-    SignalModel s = sensors;
-    if (std::string e = ApplyValues(c, initial, copy.get(), &s); !e.empty()) {
-      fit.error = "the initial values: " + e;
-      return fit;
-    }
-    Evaluated ev = Evaluate(copy.get(), s, meas, options.gap);
-    if (!ev.error.empty()) {
-      fit.error = "the initial values: " + ev.error;
-      return fit;
-    }
-    fit.train_gap_before = ev.gap;
-    if (ev.residuals.size() == 0) {
-      fit.error = "no predicted rows";
-      return fit;
-    }
-    auto* cost = new EffectCost(m.get(), sensors, c, meas, options, static_cast<int>(ev.residuals.size()));
-    double start_ss = ev.residuals.squaredNorm();
-    std::vector<double> start = ScanLogarithmic(*cost, c, initial, &start_ss, options.scan_points, options.scan_grid_points);
-    if (options.scan_points > 0) start = ScanGrid(*cost, c, start, &start_ss);
-    std::vector<double> z(k);
-    for (size_t i = 0; i < k; ++i) z[i] = ToVariable(c.parameters[i], start[i]);
     ceres::Problem problem;
-    problem.AddResidualBlock(cost, nullptr, z.data());
+    problem.AddResidualBlock(owned.release(), nullptr, z.data());
     for (size_t i = 0; i < k; ++i) {
       problem.SetParameterLowerBound(z.data(), static_cast<int>(i), ToVariable(c.parameters[i], c.parameters[i].lower));
       problem.SetParameterUpperBound(z.data(), static_cast<int>(i), ToVariable(c.parameters[i], c.parameters[i].upper));
@@ -357,40 +403,36 @@ CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, c
       return fit;
     }
     fit.converged = summary.termination_type == ceres::CONVERGENCE;
-    for (size_t i = 0; i < k; ++i) fit.values.push_back(ToValue(c.parameters[i], z[i]));
-    // residuals and Jacobian at the optimum (in the parameters' units), for the standard errors
+    fit.values = cost->Values(z);
+    // residuals, gap and Jacobian at the optimum (in the parameters' units), for the standard
+    // errors: a linear parameter with Ceres' step (remembered where Ceres accepted its last step),
+    // a logarithmic one with a step of its scale (its fit's step is a fraction of its value)
     Eigen::VectorXd r;
-    if (std::string e = cost->Residuals(fit.values, &r); !e.empty()) {
+    if (std::string e = cost->Residuals(z, &r, &fit.train_gap_after); !e.empty()) {
       fit.error = "at the fitted values: " + e;
       return fit;
-    }
-    // the gap (a mean over signals of per-signal means, not the plain RMS of r)
-    {
-      ModelPtr at(mj_copyModel(nullptr, m.get()), mj_deleteModel);
-      SignalModel s2 = sensors;
-      ApplyValues(c, fit.values, at.get(), &s2);
-      fit.train_gap_after = Evaluate(at.get(), s2, meas, options.gap).gap;
     }
     Eigen::MatrixXd J(r.size(), static_cast<Eigen::Index>(k));
     std::vector<std::string> names;
     std::vector<double> scales;
     for (size_t i = 0; i < k; ++i) {
       const EffectParameter& p = c.parameters[i];
-      double h = options.relative_step * p.scale;
-      if (fit.values[i] + h > p.upper) h = -h;
-      std::vector<double> shifted = fit.values;
-      shifted[i] += h;
+      std::vector<double> shifted = cost->Shifted(z, i);
+      if (p.logarithmic) {
+        const double h = options.relative_step * p.scale;
+        shifted[i] = ToVariable(p, fit.values[i] + h > p.upper ? fit.values[i] - h : fit.values[i] + h);
+      }
       Eigen::VectorXd rh;
       if (std::string e = cost->Residuals(shifted, &rh); !e.empty()) {
         fit.error = "Jacobian at the fitted values: " + e;
         return fit;
       }
-      J.col(static_cast<Eigen::Index>(i)) = (rh - r) / (shifted[i] - fit.values[i]);
+      J.col(static_cast<Eigen::Index>(i)) = (rh - r) / (ToValue(p, shifted[i]) - fit.values[i]);
       names.push_back(p.name);
       scales.push_back(p.scale);
     }
     identification::UncertaintyOptions uo;
-    uo.series_starts = ev.series_starts;
+    uo.series_starts = cost->series_starts();
     identification::Uncertainty u = identification::EstimateUncertainty(J, r, names, fit.values, scales, uo);
     fit.standard_errors = u.error.empty() ? u.standard_error : std::vector<double>(k, std::numeric_limits<double>::infinity());
     fit.poorly_determined = u.error.empty() ? u.poorly_determined : std::vector<std::string>(k, u.error);

@@ -382,6 +382,16 @@ Windows MakeWindows(int rows, int horizon_rows, int warmup_rows) {
   return w;
 }
 
+Windows EveryNthWindow(const Windows& w, int stride, int max_windows) {
+  const int windows = static_cast<int>(w.starts.size());
+  stride = std::max(stride, 1);
+  if (max_windows > 0) stride = std::max(stride, (windows + max_windows - 1) / max_windows);
+  Windows kept = w;
+  kept.starts.clear();
+  for (int i = 0; i < windows; i += stride) kept.starts.push_back(w.starts[i]);
+  return kept;
+}
+
 bool EstimatesOverTheHistory(const mjModel* m, const SignalModel& signals) {
   return signals.history_estimate || (!Reservoirs(m).empty() && !signals.logged_supply);
 }

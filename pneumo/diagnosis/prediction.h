@@ -73,6 +73,10 @@ struct Windows {
 // Windows of `horizon_rows` tiling rows [warmup, rows), back to back.
 Windows MakeWindows(int rows, int horizon_rows, int warmup_rows);
 
+// Every stride-th window of w from its first, the stride raised as far as needed to keep at most
+// max_windows of them (0: no limit): windows spread over the whole log at a bounded cost.
+Windows EveryNthWindow(const Windows& w, int stride, int max_windows);
+
 // simulated[signal][row] as the sensors would report it; NaN in rows no window predicts (the
 // warm-up of the first window, each window's start row, a last partial window)
 struct Prediction {
