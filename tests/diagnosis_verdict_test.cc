@@ -258,18 +258,18 @@ TEST(Plausibility, RejectsAValueAtItsFarBoundOrOneTheDataDoNotDetermine) {
   volume.name = "cyl:P.line_volume", volume.absent = std::nan("");
   line.parameters = {volume, conductance};
   EXPECT_EQ(Implausible(line, {1e-8, 1e-7}, {1e-9, 1.0}), "");
-  // the gas energy equation in place of the polytropic model: its wall conductance only sizes the
-  // effect, and at either end (adiabatic, isothermal walls) or undetermined it is still the effect
+  // the gas energy equation's wall conductance: adiabatic walls (its lower end) are no effect,
+  // isothermal walls (its upper end) a polytropic index of 1, no effect a calibration cannot give;
+  // the far bound is also what ValueAtAFarBound names
   Candidate energy;
   EffectParameter wall;
   wall.name = "cyl:wall_heat_conductance", wall.lower = 1e-3, wall.upper = 1e3, wall.logarithmic = true;
-  wall.sizes_the_effect_only = true;
   energy.parameters = {wall};
-  EXPECT_EQ(Implausible(energy, {1e-3}, {0.5}), "");
-  EXPECT_EQ(Implausible(energy, {1e3}, {1e4}), "");
-  // without the flag the adiabatic end would read as "no effect"
-  energy.parameters[0].sizes_the_effect_only = false;
   EXPECT_EQ(Implausible(energy, {1e-3}, {0.5}).find("every parameter"), 0u);
+  EXPECT_EQ(Implausible(energy, {1e3}, {1e4}).find("cyl:wall_heat_conductance at its upper bound"), 0u);
+  EXPECT_EQ(ValueAtAFarBound(energy, {1e3}).find("cyl:wall_heat_conductance at its upper bound"), 0u);
+  EXPECT_EQ(ValueAtAFarBound(energy, {1e-3}), "");
+  EXPECT_EQ(ValueAtAFarBound(energy, {1.0}), "");
 }
 
 // --- parameters before effects -------------------------------------------------------------------

@@ -84,12 +84,6 @@ struct EffectParameter {
   // ratio of specific heats, adiabatic), where it leaves another parameter at a bound at the model's
   // value (diagnose.cc, Calibrate)
   bool ends_are_physical_limits = false;
-  // true where no value is the model without the effect: the candidate's edits are the effect and
-  // this parameter only sizes it (heat_transfer's energy equation is not the polytropic model at any
-  // wall conductance; at either end of its range, adiabatic or isothermal walls, it is a physical
-  // limit, neither absent nor a magnitude the range cuts short). Its value then says nothing on
-  // whether the effect is there; the scores do (Implausible).
-  bool sizes_the_effect_only = false;
   // fitted as z = ln(value / scale) (lower > 0): for magnitudes known only to a decade or two
   // (conductances, volumes), where a linear step either crawls or overshoots
   bool logarithmic = false;

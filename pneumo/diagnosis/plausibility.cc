@@ -33,7 +33,6 @@ double AbsentValue(const EffectParameter& p) {
 std::string ValueAtAFarBound(const Candidate& c, const std::vector<double>& values) {
   for (size_t i = 0; i < c.parameters.size() && i < values.size(); ++i) {
     const EffectParameter& p = c.parameters[i];
-    if (p.sizes_the_effect_only) continue;  // the form is the effect, whatever this value
     const double value = values[i], absent = AbsentValue(p);
     const std::string bound = BoundReached(p, value);
     const bool at_absent_end = (bound == "at its lower bound" && absent <= p.lower) || (bound == "at its upper bound" && absent >= p.upper);
@@ -48,10 +47,6 @@ std::string Implausible(const Candidate& c, const std::vector<double>& values, c
   std::string undetermined;  // the first parameter off the model without the effect by less than its standard error
   for (size_t i = 0; i < c.parameters.size() && i < values.size() && i < standard_errors.size(); ++i) {
     const EffectParameter& p = c.parameters[i];
-    if (p.sizes_the_effect_only) {  // the form is the effect, whatever this value
-      any_present = true;
-      continue;
-    }
     const double value = values[i], absent = AbsentValue(p);
     const std::string bound = BoundReached(p, value);
     const bool at_absent_end = (bound == "at its lower bound" && absent <= p.lower) || (bound == "at its upper bound" && absent >= p.upper);
