@@ -722,9 +722,10 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
           const bool plausible_a = !at_far_bound(a), plausible_b = !at_far_bound(b);
           if (plausible_a != plausible_b) return plausible_a;
           if (r.ranking[a].refinement != r.ranking[b].refinement) {
-            const double richer = r.ranking[a].refinement ? r.ranking[a].delta_ic : r.ranking[b].delta_ic;
-            const double simpler = r.ranking[a].refinement ? r.ranking[b].delta_ic : r.ranking[a].delta_ic;
-            return (richer < simpler - kPositiveEvidence) == r.ranking[a].refinement;
+            const CandidateResult& richer = r.ranking[a].refinement ? r.ranking[a] : r.ranking[b];
+            const CandidateResult& simpler = r.ranking[a].refinement ? r.ranking[b] : r.ranking[a];
+            const bool richer_wins = richer.delta_ic < simpler.delta_ic - kPositiveEvidence;
+            return r.ranking[a].refinement ? richer_wins : !richer_wins;
           }
           return r.ranking[a].delta_ic < r.ranking[b].delta_ic;
         };

@@ -76,8 +76,10 @@ class EffectCost : public ceres::CostFunction {
     return "";
   }
 
-  // keeps the point among the remembered ones (the most recent first)
+  // keeps the point among the remembered ones, the most recent first (a point remembered already
+  // moves to the front)
   void Remember(const std::vector<double>& z, const Eigen::VectorXd& r, double gap) const {
+    remembered_.erase(std::remove_if(remembered_.begin(), remembered_.end(), [&](const Point& p) { return p.z == z; }), remembered_.end());
     remembered_.push_front({z, r, gap});
     if (remembered_.size() > Capacity()) remembered_.pop_back();
   }
@@ -343,7 +345,6 @@ CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, c
   ModelPtr m = BuildScenario(model_path, with_edits, meas, &sensors, &fit.error);
   if (!m) return fit;
   const size_t k = c.parameters.size();
-  // the residual count: the rows the initial point predicts
   auto owned = std::make_unique<EffectCost>(m.get(), sensors, c, meas, options);
   EffectCost* cost = owned.get();
   FitPoint initial;
@@ -357,7 +358,7 @@ CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, c
     fit.error = "no predicted rows";
     return fit;
   }
-  cost->SetResidualCount(static_cast<int>(initial.r.size()));
+  cost->SetResidualCount(static_cast<int>(initial.r.size()));  // the rows the initial point predicts
   initial.ss = initial.r.squaredNorm();
   FitPoint start = ScanLogarithmic(*cost, c, initial, options.scan_points, options.scan_grid_points);
   if (options.scan_points > 0) start = ScanGrid(*cost, c, start);

@@ -30,13 +30,23 @@ double AbsentValue(const EffectParameter& p) {
   return deviation ? p.nominal : p.lower;
 }
 
+namespace {
+
+// whether `value` of p is the model without the effect: its AbsentValue, or the bound it lies at
+// where that bound is the absent end of the range
+bool IsAbsent(const EffectParameter& p, double value) {
+  const double absent = AbsentValue(p);
+  const std::string bound = BoundReached(p, value);
+  return value == absent || (bound == "at its lower bound" && absent <= p.lower) || (bound == "at its upper bound" && absent >= p.upper);
+}
+
+}  // namespace
+
 std::string ValueAtAFarBound(const Candidate& c, const std::vector<double>& values) {
   for (size_t i = 0; i < c.parameters.size() && i < values.size(); ++i) {
     const EffectParameter& p = c.parameters[i];
-    const double value = values[i], absent = AbsentValue(p);
-    const std::string bound = BoundReached(p, value);
-    const bool at_absent_end = (bound == "at its lower bound" && absent <= p.lower) || (bound == "at its upper bound" && absent >= p.upper);
-    if (!bound.empty() && !at_absent_end && value != absent) return p.name + " " + bound + Fixed(" (%.3g ", value) + p.unit + ")";
+    const std::string bound = BoundReached(p, values[i]);
+    if (!bound.empty() && !IsAbsent(p, values[i])) return p.name + " " + bound + Fixed(" (%.3g ", values[i]) + p.unit + ")";
   }
   return "";
 }
@@ -48,9 +58,7 @@ std::string Implausible(const Candidate& c, const std::vector<double>& values, c
   for (size_t i = 0; i < c.parameters.size() && i < values.size() && i < standard_errors.size(); ++i) {
     const EffectParameter& p = c.parameters[i];
     const double value = values[i], absent = AbsentValue(p);
-    const std::string bound = BoundReached(p, value);
-    const bool at_absent_end = (bound == "at its lower bound" && absent <= p.lower) || (bound == "at its upper bound" && absent >= p.upper);
-    if (at_absent_end || value == absent) continue;
+    if (IsAbsent(p, value)) continue;
     if (!(standard_errors[i] <= std::fabs(value - absent))) {
       if (undetermined.empty()) {
         undetermined = p.name + " not determined by the data" + Fixed(" (%.3g", value) + Fixed(" +- %.2g ", standard_errors[i]) + p.unit + ")";
