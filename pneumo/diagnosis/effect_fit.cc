@@ -93,9 +93,9 @@ class EffectCost : public ceres::CostFunction {
       return false;
     }
     Eigen::Map<Eigen::VectorXd>(residuals, num_residuals()) = r;
-    if (jacobians && jacobians[0]) {
-      Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(jacobians[0], num_residuals(),
-                                                                                             static_cast<Eigen::Index>(k));
+    if (!jacobians || !jacobians[0]) return true;
+    if (!SecantUpdate(z, r)) {
+      jacobian_.resize(r.size(), static_cast<Eigen::Index>(k));
       for (size_t i = 0; i < k; ++i) {
         const std::vector<double> shifted = Shifted(z, i);
         Eigen::VectorXd rh;
@@ -103,9 +103,34 @@ class EffectCost : public ceres::CostFunction {
           last_error_ = "finite difference of " + c_.parameters[i].name + ": " + e;
           return false;
         }
-        J.col(static_cast<Eigen::Index>(i)) = (rh - r) / (shifted[i] > z[i] ? options_.relative_step : -options_.relative_step);
+        jacobian_.col(static_cast<Eigen::Index>(i)) = (rh - r) / (shifted[i] > z[i] ? options_.relative_step : -options_.relative_step);
       }
+      secant_updates_ = 0, exact_next_ = false;
     }
+    jacobian_z_ = z, jacobian_r_ = r;
+    Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(jacobians[0], num_residuals(),
+                                                                                     static_cast<Eigen::Index>(k)) = jacobian_;
+    return true;
+  }
+
+  // Broyden's update of the last Jacobian to the point z (Broyden, Math. Comp. 19, 1965, eq. 2.9;
+  // Nocedal and Wright, Numerical Optimization, 2nd ed., eq. 11.27): with the step s from the
+  // last Jacobian's point and the change y of the residuals along it, J + (y - J s) s^T / s^T s,
+  // the least change of J that predicts y exactly. Used for at most FitOptions::secant_updates
+  // Jacobians in a row, and only while J predicted the step's change well (the part of y it
+  // missed below half of y); otherwise, or when asked (RequireExactJacobian), false: the caller
+  // takes finite differences
+  bool SecantUpdate(const std::vector<double>& z, const Eigen::VectorXd& r) const {
+    if (exact_next_ || secant_updates_ >= options_.secant_updates || jacobian_z_.empty() || jacobian_.rows() != r.size()) return false;
+    const Eigen::VectorXd s = Eigen::Map<const Eigen::VectorXd>(z.data(), static_cast<Eigen::Index>(z.size())) -
+                              Eigen::Map<const Eigen::VectorXd>(jacobian_z_.data(), static_cast<Eigen::Index>(z.size()));
+    const double ss = s.squaredNorm();
+    if (ss == 0) return false;
+    const Eigen::VectorXd y = r - jacobian_r_;
+    const Eigen::VectorXd missed = y - jacobian_ * s;
+    if (missed.norm() > 0.5 * y.norm()) return false;
+    jacobian_ += missed * (s.transpose() / ss);
+    ++secant_updates_;
     return true;
   }
 
@@ -118,6 +143,10 @@ class EffectCost : public ceres::CostFunction {
     if (ToValue(p, shifted[i]) > p.upper) shifted[i] = z[i] - options_.relative_step;
     return shifted;
   }
+
+  // the next Jacobian by finite differences; whether the last one was
+  void RequireExactJacobian() { exact_next_ = true; }
+  bool last_jacobian_exact() const { return secant_updates_ == 0; }
 
   int evaluations() const { return evaluations_; }
   const std::string& last_error() const { return last_error_; }
@@ -142,6 +171,13 @@ class EffectCost : public ceres::CostFunction {
   mutable std::deque<Point> remembered_;
   mutable std::vector<int> series_starts_;
   mutable std::string last_error_;
+  // the last Jacobian Ceres was given, with its point and residuals, and the secant updates since
+  // the last finite-difference one (SecantUpdate)
+  mutable Eigen::MatrixXd jacobian_;
+  mutable std::vector<double> jacobian_z_;
+  mutable Eigen::VectorXd jacobian_r_;
+  mutable int secant_updates_ = 0;
+  mutable bool exact_next_ = false;
 };
 
 // A point of a fit with its residuals, gap and sum of squares: where a scan starts and what it returns.
@@ -253,6 +289,22 @@ class ProgressLine : public ceres::IterationCallback {
   const Candidate& c_;
   const FitOptions& o_;
   const double* z_;
+};
+
+// Stops Ceres where a step taken on a secant Jacobian (EffectCost::SecantUpdate) was refused:
+// Levenberg-Marquardt would damp the next step on the same, possibly poor, Jacobian; the fit
+// instead starts again from the point with a finite-difference one (FitCandidate), as levmar does
+// after a failed step on a Broyden Jacobian (Lourakis, levmar, 2004, dlevmar_dif)
+class SecantStepGuard : public ceres::IterationCallback {
+ public:
+  explicit SecantStepGuard(const EffectCost& cost) : cost_(cost) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& s) override {
+    return s.iteration > 0 && !s.step_is_successful && !cost_.last_jacobian_exact() ? ceres::SOLVER_TERMINATE_SUCCESSFULLY
+                                                                                    : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const EffectCost& cost_;
 };
 
 }  // namespace
@@ -394,10 +446,24 @@ CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, c
     solver.update_state_every_iteration = true;
     ProgressLine progress(c, options, z.data());
     solver.callbacks.push_back(&progress);
+    SecantStepGuard secant_guard(*cost);
+    solver.callbacks.push_back(&secant_guard);
+    // a fit converges only on a finite-difference Jacobian: where Ceres stops on a secant one
+    // (EffectCost::SecantUpdate), converged or after a refused step (SecantStepGuard), it goes on
+    // from there with finite differences, in what is left of the iterations (steps: each Solve's
+    // iteration 0 is its start point's evaluation)
     ceres::Solver::Summary summary;
-    ceres::Solve(solver, &problem, &summary);
+    fit.iterations = 0;
+    for (;;) {
+      ceres::Solve(solver, &problem, &summary);
+      fit.iterations += static_cast<int>(summary.iterations.size()) - 1;
+      solver.max_num_iterations = options.max_iterations - fit.iterations;
+      const bool stopped_on_secant = (summary.termination_type == ceres::CONVERGENCE || summary.termination_type == ceres::USER_SUCCESS) &&
+                                     !cost->last_jacobian_exact();
+      if (!stopped_on_secant || solver.max_num_iterations <= 0) break;
+      cost->RequireExactJacobian();
+    }
     fit.evaluations = cost->evaluations();
-    fit.iterations = static_cast<int>(summary.iterations.size());
     if (summary.termination_type == ceres::FAILURE || summary.termination_type == ceres::USER_FAILURE ||
         !std::isfinite(summary.final_cost)) {
       fit.error = "the fit failed: " + (cost->last_error().empty() ? summary.message : cost->last_error());

@@ -67,7 +67,7 @@ struct CandidateFit {
   // conditional ones; a parameter the data ignore has both large
   std::vector<double> conditional_standard_errors;
   double train_gap_before = 0, train_gap_after = 0;
-  int iterations = 0, evaluations = 0;
+  int iterations = 0, evaluations = 0;  // Levenberg-Marquardt steps taken (refused ones too); simulations of the log
   bool converged = false;
   std::string error;  // non-empty: the fit failed (the candidate is reported as failed)
 };
@@ -89,6 +89,10 @@ struct FitOptions {
   // (EffectParameter) together on the first one's grid. 0: neither scan
   int scan_points = 6;
   int scan_grid_points = 4;
+  // Jacobians in a row that Broyden's secant update of the last one may stand for (a
+  // finite-difference Jacobian costs a simulation of the log per parameter, the update none);
+  // 0: every Jacobian by finite differences. A fit ends only on a finite-difference one
+  int secant_updates = 2;
   std::function<void(const std::string&)> progress;
 };
 
