@@ -637,7 +637,10 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     }
     // a richer form of an effect (Candidate::refinement) is fitted only for the round's two best
     // effects by the dIC of their simpler forms: the leader, and the runner-up, the best of the
-    // other effects whose simpler forms explain the gap by themselves. It refines a verdict or its
+    // other effects that have a richer form to fit and whose simpler forms explain the gap by
+    // themselves (an effect with one form, payload or sensor_bias, has nothing to refine: in the
+    // runner-up's place it would leave the slot unused while an effect that can be refined waits
+    // behind it). It refines a verdict or its
     // closest contender, and costs no fit otherwise. The runner-up is refined because a simple form
     // can be a poor stand-in for its own effect while another effect leads: on rig A driven open
     // loop, commands 8 ms late, the armature delays lose every pulse shorter than their opening
@@ -649,6 +652,10 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     // refined in a later round if it is among the two best there
     std::map<std::string, double> best_simple;  // each effect's best dIC among its simpler forms
     std::set<std::string> explaining;           // the effects with a simpler form that explains
+    std::set<std::string> refinable;            // the effects with a richer form still to fit
+    for (const Candidate& c : candidates) {
+      if (c.refinement && eligible(c)) refinable.insert(c.effect);
+    }
     for (const CandidateResult& result : r.ranking) {
       if (std::isnan(result.delta_ic)) continue;
       auto [best, inserted] = best_simple.try_emplace(result.effect, result.delta_ic);
@@ -660,9 +667,14 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
       if (leader.empty() || dic < best_simple[leader]) leader = effect;
     }
     for (const auto& [effect, dic] : best_simple) {
-      if (effect != leader && explaining.count(effect) && (runner_up.empty() || dic < best_simple[runner_up])) runner_up = effect;
+      if (effect != leader && explaining.count(effect) && refinable.count(effect) && (runner_up.empty() || dic < best_simple[runner_up]))
+        runner_up = effect;
     }
     const std::set<std::string> refined = {leader, runner_up};  // "" names no effect
+    std::string refining;
+    if (refinable.count(leader)) refining = leader + " (the round's leader)";
+    if (!runner_up.empty()) refining += (refining.empty() ? "" : " and ") + runner_up + " (its runner-up)";
+    if (!refining.empty()) say("round " + std::to_string(round + 1) + ": richer forms of " + refining);
     for (const Candidate& c : candidates) {
       if (c.refinement && refined.count(c.effect) && eligible(c)) try_candidate(c);
     }
