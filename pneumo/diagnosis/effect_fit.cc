@@ -456,7 +456,7 @@ CandidateFit FitCandidate(const std::string& model_path, const Scenario& base, c
     fit.iterations = 0;
     for (;;) {
       ceres::Solve(solver, &problem, &summary);
-      fit.iterations += static_cast<int>(summary.iterations.size()) - 1;
+      fit.iterations += std::max(0, static_cast<int>(summary.iterations.size()) - 1);  // none where Ceres refused to start
       solver.max_num_iterations = options.max_iterations - fit.iterations;
       const bool stopped_on_secant = (summary.termination_type == ceres::CONVERGENCE || summary.termination_type == ceres::USER_SUCCESS) &&
                                      !cost->last_jacobian_exact();

@@ -91,7 +91,8 @@ struct FitOptions {
   int scan_grid_points = 4;
   // Jacobians in a row that Broyden's secant update of the last one may stand for (a
   // finite-difference Jacobian costs a simulation of the log per parameter, the update none);
-  // 0: every Jacobian by finite differences. A fit ends only on a finite-difference one
+  // 0: every Jacobian by finite differences. A fit converges only on a finite-difference one
+  // (one that runs out of iterations may stop on a secant one)
   int secant_updates = 2;
   std::function<void(const std::string&)> progress;
 };
