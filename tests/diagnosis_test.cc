@@ -507,8 +507,13 @@ TEST(DiagnosisCandidates, HeatTransfersSecondFormEstimatesTheTemperaturesOverThe
   std::optional<Measurements> meas = PrepareMeasurements(clean.get(), RigCLog(1, 1.0, 0, 1), 100, &error);
   ASSERT_TRUE(meas) << error;
   const std::optional<Candidate> form = RicherForm(clean.get(), *meas, "heat_transfer");
-  ASSERT_TRUE(form);
+  const std::optional<Candidate> first = FirstForm(clean.get(), *meas, "heat_transfer");
+  ASSERT_TRUE(form && first);
   ASSERT_EQ(form->parameters.size(), 1u);
+  // the same conductance as the first form's, so its fit starts at that form's value (diagnose.cc)
+  EXPECT_EQ(form->parameters[0].name, first->parameters[0].name);
+  EXPECT_TRUE(form->parameters[0].seed_from.empty());
+  EXPECT_EQ(form->parameters[0].seed_factor, 1.0);
   ModelPtr m = LoadEditedModel(kRigC, form->edits, &error);
   ASSERT_TRUE(m) << error;
   SignalModel signals = SignalModel::Identity(*meas);
@@ -1098,7 +1103,8 @@ TEST(DiagnosisFit, RecoversAWallHeatConductanceOverTheHistory) {
 
 // End to end: a biased p_P sensor (offset 15 kPa, gain 1.03) is named, its offset and gain are
 // recovered within 4 standard errors, and the held-out gap shrinks; the same rig without the
-// bias gives `none`.
+// bias gives `none`, without a search (its residual depends on no state beyond noise: diagnose.h),
+// and searched all the same (DiagnoseOptions::search_unstructured), `none` again.
 // (A part of the library keeps the test short: bench_diagnose runs all of it.)
 TEST(DiagnosisEndToEnd, FindsABiasedPressureSensorAndNothingOnACleanLog) {
   DiagnoseOptions o;
@@ -1116,9 +1122,20 @@ TEST(DiagnosisEndToEnd, FindsABiasedPressureSensorAndNothingOnACleanLog) {
   EXPECT_LT(d.heldout_gap_after, 0.4 * d.heldout_gap_before);
 
   log::Log clean_train = RigCLog(1, 3.0, 0, 1), clean_held = RigCLog(2, 3.0, 0, 1);
+  const Diagnosis unsearched = Diagnose(kRigC, clean_train, &clean_held, o);
+  ASSERT_EQ(unsearched.error, "");
+  EXPECT_EQ(unsearched.verdict, "none");
+  EXPECT_NE(unsearched.search, "searched");
+  EXPECT_TRUE(unsearched.rounds.empty());
+  for (const ResidualStructure& s : unsearched.unexplained.signals) EXPECT_FALSE(s.structured) << s.signal;
+  o.search_unstructured = true;
   Diagnosis clean = Diagnose(kRigC, clean_train, &clean_held, o);
   ASSERT_EQ(clean.error, "");
+  EXPECT_EQ(clean.search, "searched");
+  ASSERT_FALSE(clean.rounds.empty());
   EXPECT_TRUE(clean.effects.empty()) << clean.effects[0];
+  // the rule skipped only a search that finds nothing: the same model, as calibrated
+  EXPECT_EQ(clean.heldout_gap_after, unsearched.heldout_gap_after);
   // every candidate tried is ranked (a failed fit is listed as failed, never dropped): one each of
   // leakage, payload and friction, sensor_bias once per signal, and the richer forms of the round's
   // two best effects by their simpler forms' dIC, the leader and the best other effect with richer

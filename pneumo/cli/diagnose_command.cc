@@ -43,6 +43,8 @@ Command AddDiagnoseCommand(CLI::App& app) {
   diagnose->add_option("--calibration-iterations", diagnose_options.diagnose.calibration_iterations,
                        "iterations of the calibration of the model's nominal parameters before the effects (0: none)")
       ->capture_default_str()->check(CLI::Range(0, 200));
+  diagnose->add_flag("--search-unstructured", diagnose_options.diagnose.search_unstructured,
+                     "search the effects even where the calibrated model's residual depends on no state beyond noise (default: not searched, verdict none)");
   diagnose->add_option("--horizon", diagnose_options.diagnose.horizon_s, "prediction window, s")->capture_default_str()
       ->check(CLI::Range(0.005, 10.0));
   diagnose->add_option("--max-effects", diagnose_options.diagnose.max_effects, "effects searched one after the other")
@@ -52,7 +54,7 @@ Command AddDiagnoseCommand(CLI::App& app) {
   diagnose->add_flag("--quiet", diagnose_options.quiet, "no progress on stderr");
   diagnose->footer(
       "Prints JSON: verdict.{effect (an effect, none or unexplained), effects, params, calibration, noise_floor,\n"
-      "unexplained, alternatives, heldout_gap_before, heldout_gap_after}, the ranking of every\n"
+      "unexplained, alternatives, search, heldout_gap_before, heldout_gap_after}, the ranking of every\n"
       "candidate (score = the information criterion dIC), where the gap lies (per signal, regime, over time).\n"
       "README, \"Diagnosis\", defines the gap and the verdict rule.");
   return {diagnose, [arguments] { return pneumatic::RunDiagnose(*arguments); }};

@@ -533,8 +533,16 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
                                                     .summary);
     }
   }
+  // nothing to explain (diagnose.h): no signal's residual depends on a state beyond noise
+  const Unexplained start = DescribeResidual(*held, held_gap, base_held, {}, {}, {}, {}, out.noise_floor, options.floor_multiple);
+  if (!options.search_unstructured &&
+      std::none_of(start.signals.begin(), start.signals.end(), [](const ResidualStructure& s) { return s.structured; })) {
+    out.search = std::string(found_effects.empty() ? "not searched: the model's" : "not searched: the calibrated model's") +
+                 " held-out residual depends on no state, command or lag beyond noise on any signal, so no effect has anything to explain";
+    say("effects " + out.search);
+  }
   auto effect_count = [&] { return static_cast<int>(EffectsOf(found_effects).size()); };
-  const int max_rounds = 2 * options.max_effects;  // a dropped effect frees a place; bounded all the same
+  const int max_rounds = out.search == "searched" ? 2 * options.max_effects : 0;  // a dropped effect frees a place; bounded all the same
   for (int round = 0; round < max_rounds && effect_count() < options.max_effects; ++round) {
     Round r;
     r.model_effects = EffectsOf(found_effects);

@@ -459,6 +459,7 @@ std::string Html(const dg::Diagnosis& d, const DiagnoseLogOptions& o) {
   WhereSection(d, h);
   if (!left_first) UnexplainedSection(d, o, h);
   for (size_t r = 0; r < d.rounds.size(); ++r) RoundSection(d, r, h);
+  if (d.rounds.empty()) h << "<h2 id=\"rounds\">Candidates</h2><p>Effects " << Escape(d.search) << ".</p>\n";
   WhitenessSection(h);
   h << "</body></html>\n";
   return h.str();
@@ -493,6 +494,7 @@ nlohmann::json DiagnosisJson(const dg::Diagnosis& d) {
                   {"noise_floor", NoiseFloorJson(d)},
                   {"unexplained", UnexplainedJson(d.unexplained)},
                   {"alternatives", nlohmann::json::array()},
+                  {"search", d.search},
                   {"heldout_gap_before", d.heldout_gap_before},
                   {"heldout_gap_after", d.heldout_gap_after},
                   {"shrink_pct", 100 * (d.heldout_gap_before - d.heldout_gap_after) / d.heldout_gap_before}};
@@ -515,6 +517,7 @@ nlohmann::json DiagnosisJson(const dg::Diagnosis& d) {
     j["regime_fraction"][d.regimes.names[k]] = n / std::max<double>(1, static_cast<double>(d.regimes.member[k].size()));
   }
   j["over_time"] = {{"window_start_s", d.before.window_time}, {"gap_before", d.before.window_gap}, {"gap_after", d.after.window_gap}};
+  j["rounds"] = nlohmann::json::array();
   for (const dg::Round& r : d.rounds) {
     nlohmann::json round = {{"model_effects", r.model_effects},
                             {"heldout_gap_before", r.heldout_gap_before},

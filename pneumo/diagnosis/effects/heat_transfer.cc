@@ -43,11 +43,14 @@ void HeatTransferForms(FormLibrary* library) {
   // over the log's history (SignalModel::history_estimate). A gas temperature relaxes to the wall's
   // over tenths of a second, longer than a 20 ms warm-up, so the first form starts each window with
   // its gas too close to the wall's temperature after a filling or a venting. The history costs a
-  // simulation of the whole log per evaluation, so only the rounds the first form leads or is the runner-up of pay it
+  // simulation of the whole log per evaluation, so only the rounds the first form leads or is the
+  // runner-up of pay it. It is the same equation with the same conductance, so its fit starts from
+  // the first form's (seed_factor 1): only the start of each window's gas temperatures differs.
   library->PerCylinder("heat_transfer", "gas temperature as a state, one wall heat conductance, the temperatures estimated over the log's history",
                        [m](const CylinderSeries& cyl, Candidate* c) {
     AddEnergyEquation(m, cyl, c);
     EstimatedOverTheHistory(&c->parameters.back());
+    c->parameters.back().seed_factor = 1;
   }, true);
 }
 
