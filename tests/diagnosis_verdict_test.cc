@@ -176,7 +176,8 @@ SyntheticResidual MakeResidual(const std::function<double(double x, int row)>& r
 
 // A residual of x that is a dead band of 0.5 mm against the direction of x (a backlash's
 // signature, not noise): structured, its strongest dependence on x, and "present" at a floor far
-// below it; white noise of the same size is not structured.
+// below it; white noise of the same size is not structured, but as far above the floor it is
+// unexplained all the same (a disturbance the states do not show: VerdictWithoutEffect).
 TEST(ResidualStructure, AStateDependentResidualIsStructuredAndNoiseIsNot) {
   const SyntheticResidual backlash = MakeResidual([](double x, int) { return x > 0 ? 5e-4 : -5e-4; }, 1e-3);
   const Unexplained u = DescribeResidual(backlash.meas, backlash.g, backlash.full, {}, {}, {}, {}, backlash.floor, 2);
@@ -192,6 +193,7 @@ TEST(ResidualStructure, AStateDependentResidualIsStructuredAndNoiseIsNot) {
   EXPECT_GT(x.systematic, std::sqrt(0.8) * 5e-4 / 0.02);
   EXPECT_LE(x.systematic, 5e-4 / 0.02 + 1e-12);
   EXPECT_TRUE(u.present);
+  EXPECT_EQ(VerdictWithoutEffect(u), "unexplained");
   EXPECT_NE(u.summary.find("cyl.x"), std::string::npos) << u.summary;
 
   std::mt19937_64 random(5);
@@ -199,7 +201,14 @@ TEST(ResidualStructure, AStateDependentResidualIsStructuredAndNoiseIsNot) {
   const SyntheticResidual white = MakeResidual([&](double, int) { return noise(random); }, 1e-3);
   const Unexplained w = DescribeResidual(white.meas, white.g, white.full, {}, {}, {}, {}, white.floor, 2);
   EXPECT_FALSE(w.signals[kPosition].structured) << w.summary;
+  EXPECT_FALSE(w.structured);
   EXPECT_FALSE(w.present);
+  // its gap, 0.5 mm RMS over the scale of 20 mm on one of three signals, 0.025 / sqrt(3) = 0.0144,
+  // is about 14 times the floor of 0.001
+  EXPECT_NEAR(w.gap / w.floor, 14.4, 1.0);
+  EXPECT_TRUE(w.above_floor) << w.summary;
+  EXPECT_EQ(VerdictWithoutEffect(w), "unexplained");
+  EXPECT_NE(w.summary.find("drift"), std::string::npos) << w.summary;
 }
 
 // The same structured residual within the floor's margin is not unexplained: a gap of 1.5 floors.
@@ -209,7 +218,9 @@ TEST(ResidualStructure, AGapWithinTheFloorMarginIsNotUnexplained) {
   floor.floor = s.full.gap / 1.5;
   const Unexplained u = DescribeResidual(s.meas, s.g, s.full, {}, {}, {}, {}, floor, 2);
   EXPECT_TRUE(u.signals[kPosition].structured);
+  EXPECT_FALSE(u.above_floor);
   EXPECT_FALSE(u.present);
+  EXPECT_EQ(VerdictWithoutEffect(u), "none");
 }
 
 // --- implausible and undetermined fits ----------------------------------------------------------

@@ -533,12 +533,13 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
                                                     .summary);
     }
   }
-  // nothing to explain (diagnose.h): no signal's residual depends on a state beyond noise
+  // nothing to explain (diagnose.h): the gap within the floor's margin and no signal's residual
+  // dependent on a state beyond noise
   const Unexplained start = DescribeResidual(*held, held_gap, base_held, {}, {}, {}, {}, out.noise_floor, options.floor_multiple);
-  if (!options.search_unstructured &&
-      std::none_of(start.signals.begin(), start.signals.end(), [](const ResidualStructure& s) { return s.structured; })) {
+  if (!options.search_unstructured && !start.above_floor && !start.structured) {
     out.search = std::string(found_effects.empty() ? "not searched: the model's" : "not searched: the calibrated model's") +
-                 " held-out residual depends on no state, command or lag beyond noise on any signal, so no effect has anything to explain";
+                 " held-out gap is within the floor's margin and its residual depends on no state, command or lag beyond noise on any "
+                 "signal, so no effect has anything to explain";
     say("effects " + out.search);
   }
   auto effect_count = [&] { return static_cast<int>(EffectsOf(found_effects).size()); };
@@ -962,7 +963,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
   out.heldout_gap_after = out.after.full.gap;
   out.unexplained = DescribeResidual(*held, held_gap, out.after.full, out.after.pneumatic_gap, out.after.mechanical_gap, out.regimes.names,
                                      out.after.regime_gap, out.noise_floor, options.floor_multiple);
-  out.verdict = !out.effects.empty() ? out.effects.front() : out.unexplained.present ? "unexplained" : "none";
+  out.verdict = !out.effects.empty() ? out.effects.front() : VerdictWithoutEffect(out.unexplained);
   say("verdict: " + out.verdict + (out.unexplained.present && !out.effects.empty() ? " (a structured residual remains unexplained)" : ""));
   say("the verdict's model's residual: " + out.unexplained.summary);
   out.alternatives = Alternatives(out, options);

@@ -38,12 +38,14 @@
 // values; only those joint fits may explain the calibrated model's gap. When none does and the
 // calibrated model's residual is structured and well above the noise floor, every other effect is
 // fitted together with the calibration too, from the calibrated values (diagnose.cc).
-// Nothing to explain: where the calibrated model's held-out residual depends on no state, command
-// or lag beyond noise on any signal, the effects are not searched and the verdict is `none` (model
-// validation by residual analysis: a model whose residuals are white and independent of the inputs
-// is not falsified by the data, Ljung, System Identification, 2nd ed., 1999, sec. 16.6). Every
-// candidate acts through the states and the commands, so what it could take up is what the structure
-// test looks for (DiagnoseOptions::search_unstructured turns the rule off).
+// Nothing to explain: where the calibrated model's held-out gap is within the floor's margin and its
+// residual depends on no state, command or lag beyond noise on any signal, the effects are not
+// searched and the verdict is `none`, as effects.md defines it (model validation by residual
+// analysis: a model whose residuals are white and independent of the inputs is not falsified by the
+// data, Ljung, System Identification, 2nd ed., 1999, sec. 16.6; DiagnoseOptions::search_unstructured
+// turns the rule off). Where no effect is established, the verdict is `unexplained` when the gap is
+// above the floor's margin, structured or not (VerdictWithoutEffect, unexplained.h), and `none`
+// within it.
 // How far: the held-out gap before and after, per signal and as one number (effect_fit.h).
 #ifndef PNEUMATIC_DIAGNOSIS_DIAGNOSE_H_
 #define PNEUMATIC_DIAGNOSIS_DIAGNOSE_H_
@@ -107,9 +109,10 @@ struct DiagnoseOptions {
   // of that signal's gap against its floor_s: an effect on one signal, a position sensor's offset,
   // is not diluted by the signals it leaves alone)
   double floor_multiple = 2;
-  // false: where the (calibrated) model's held-out residual depends on no state, command or lag
-  // beyond noise on any signal (ResidualStructure::structured, unexplained.h), the effects are not
-  // searched and the verdict is `none` (Diagnosis::search). true: searched all the same
+  // false: where the (calibrated) model's held-out gap is within floor_multiple times the floor and
+  // its residual depends on no state, command or lag beyond noise on any signal (Unexplained,
+  // unexplained.h), the effects are not searched and the verdict is `none` (Diagnosis::search).
+  // true: searched all the same
   bool search_unstructured = false;
   // two explanations whose dIC differ by less than this are both an answer (Diagnosis::alternatives):
   // short of Kass and Raftery's "very strong" evidence for one over the other

@@ -49,7 +49,7 @@ nlohmann::json NoiseFloorJson(const dg::Diagnosis& d) {
 }
 
 nlohmann::json UnexplainedJson(const dg::Unexplained& u) {
-  nlohmann::json out = {{"present", u.present}, {"gap", u.gap}, {"floor", u.floor}, {"ratio_to_floor", Number(u.gap / u.floor)},
+  nlohmann::json out = {{"present", u.present}, {"above_floor", u.above_floor}, {"structured", u.structured}, {"gap", u.gap}, {"floor", u.floor}, {"ratio_to_floor", Number(u.gap / u.floor)},
                         {"side", u.side.empty() ? nlohmann::json(nullptr) : nlohmann::json(u.side)},
                         {"mechanical_side_ratio", Number(u.mechanical_ratio)}, {"pneumatic_side_ratio", Number(u.pneumatic_ratio)},
                         {"full_ratio", Number(u.full_ratio)}, {"summary", u.summary}};
@@ -174,9 +174,12 @@ void VerdictBox(const dg::Diagnosis& d, const DiagnoseLogOptions& o, std::ostrin
   if (d.verdict == "unexplained") {
     kind = "unexplained";
     headline = "Not explained by any effect in the library";
-    explanation = "What the model leaves is well above the noise floor and depends on the states, but no candidate effect "
-                  "removes it by the rules (or only with values it cannot trust). The missing physics is outside the library: "
-                  "&ldquo;What is left unexplained&rdquo; below shows where it lies.";
+    explanation = u.present ? "What the model leaves is well above the noise floor and depends on the states, but no candidate effect "
+                              "removes it by the rules (or only with values it cannot trust). The missing physics is outside the library: "
+                              "&ldquo;What is left unexplained&rdquo; below shows where it lies."
+                            : "What the model leaves is well above the noise floor, but depends on no state, command or lag beyond noise, "
+                              "and no candidate effect removes it: something that varies with time (a drift), a disturbance, or noise "
+                              "the floor does not count. &ldquo;Where the gap lies&rdquo; shows it over time.";
   } else if (d.verdict == "none") {
     kind = "none";
     headline = "No unmodelled effect found";

@@ -95,6 +95,8 @@ ResidualStructure Structure(const Measurements& meas, const GapOptions& g, const
 
 }  // namespace
 
+std::string VerdictWithoutEffect(const Unexplained& u) { return u.above_floor ? "unexplained" : "none"; }
+
 Unexplained DescribeResidual(const Measurements& meas, const GapOptions& g, const Evaluated& full, const std::vector<double>& pneumatic_gap,
                              const std::vector<double>& mechanical_gap, const std::vector<std::string>& regime_names,
                              const std::vector<double>& regime_gap, const NoiseFloor& floor, double floor_multiple) {
@@ -117,7 +119,9 @@ Unexplained DescribeResidual(const Measurements& meas, const GapOptions& g, cons
       worse(&u.pneumatic_ratio, pneumatic_gap[s] / f);
     }
   }
-  u.present = u.gap > floor_multiple * u.floor && structured;
+  u.above_floor = u.gap > floor_multiple * u.floor;
+  u.structured = structured;
+  u.present = u.above_floor && structured;
   for (size_t k = 0; k < regime_names.size() && k < regime_gap.size(); ++k) {
     if (std::isfinite(regime_gap[k]) && regime_gap[k] > 1.25 * u.gap) u.regimes.push_back({regime_names[k], regime_gap[k] / u.gap});
   }
@@ -131,7 +135,11 @@ Unexplained DescribeResidual(const Measurements& meas, const GapOptions& g, cons
   // in words
   std::string text = Fixed("The gap %.4f is ", u.gap) + Fixed("%.1f times the noise floor", u.gap / std::max(u.floor, 1e-300)) +
                      Fixed(" (%.4f)", u.floor);
-  text += u.present ? ", and structured." : structured ? ", structured but within the floor's margin." : ", and its residuals do not depend on the states beyond noise.";
+  text += u.present       ? ", and structured."
+          : structured    ? ", structured but within the floor's margin."
+          : u.above_floor ? ", well above it, but its residuals do not depend on the states, the commands or their lags beyond noise: "
+                            "what is missing varies with time or comes from outside them (a drift, a disturbance, noise the floor does not count)."
+                          : ", and its residuals do not depend on the states beyond noise.";
   for (const ResidualStructure& r : u.signals) {
     if (!r.structured) continue;
     // in the signal's unit: Pa for a pressure, m (rad on a hinge) for x

@@ -50,7 +50,9 @@ struct ResidualStructure {
 };
 
 struct Unexplained {
-  bool present = false;       // gap > floor_multiple floor and a signal's residual is structured
+  bool above_floor = false;   // gap > floor_multiple floor
+  bool structured = false;    // some signal's residual is (ResidualStructure::structured)
+  bool present = false;       // both: a structured residual well above the floor
   double gap = 0, floor = 0;  // the log's, normalised
   std::vector<ResidualStructure> signals;
   std::vector<std::pair<std::string, double>> regimes;  // regimes whose gap is over 1.25 times the whole's: (name, ratio)
@@ -62,6 +64,11 @@ struct Unexplained {
   double mechanical_ratio = 0, pneumatic_ratio = 0, full_ratio = 0;
   std::string summary;  // in words, for the report and the JSON
 };
+
+// The verdict where no effect is established (the definitions, docs/effects.md): `none`
+// when the gap is within floor_multiple times the floor, `unexplained` above it, whether or not the
+// residual depends on the states (a drift in time or a disturbance need not).
+std::string VerdictWithoutEffect(const Unexplained& u);
 
 // What `full`, `pneumatic_gap` and `mechanical_gap` (a model's predictions of `meas`: Assessment,
 // diagnose.h) leave, against `floor`. regime_names and regime_gap: ClassifyRegimes' names and
