@@ -33,13 +33,14 @@
 // leak, the tube with the laminar leak.
 // Prints one line per case, the confusion matrix (true effect vs verdict) and the median held-out
 // shrink of the cases with an effect. Usage: bench_diagnose [--quick] [--rig A|B|C] [--case TEXT] [--duration S]
-// [--rate HZ] [--noise K] [--reference multisine|steps|open-loop] [--no-supply-sensor] [--verbose] (--case: only the
+// [--rate HZ] [--noise K] [--reference multisine|steps|open-loop] [--no-supply-sensor] [--search-unstructured] [--verbose] (--case: only the
 // truths whose label contains TEXT; --rate: the controller's and the log's rate, 500 Hz by default; --noise K: K times
 // the sensor noise (500 Pa, 0.05 mm); --reference steps: step changes of the reference instead of the multi-sine;
 // --reference open-loop: no feedback from the truth at all, the valves driven by tests/reference's excitation of the
 // rig (Excitation(), one command per tick, each log's seed), which an independent simulator's log could be;
-// --no-supply-sensor: the logs without their p_S column, as from a robot with no supply pressure sensor; --verbose:
-// the diagnosis' progress on stderr)
+// --no-supply-sensor: the logs without their p_S column, as from a robot with no supply pressure sensor;
+// --search-unstructured: the effects searched even where the calibrated gap is within the floor's margin and
+// unstructured (DiagnoseOptions::search_unstructured); --verbose: the diagnosis' progress on stderr)
 // bench_diagnose --speed [--rig R]: the wall time of diagnosing a 20 s training log and a 12 s held-out log
 // of each rig (a laminar leak) logged at 100 Hz, 500 Hz and 1 kHz, on 2 threads.
 #include <algorithm>
@@ -399,7 +400,7 @@ bool DescribeRig(Rig* rig, std::string* valve, std::string* error_out) {
 
 // the command line's options (see the usage at the top)
 struct Arguments {
-  bool quick = false, speed = false, verbose = false, supply_sensor = true;
+  bool quick = false, speed = false, verbose = false, supply_sensor = true, search_unstructured = false;
   std::string only, only_case;
   double duration = 12, rate = 500, noise_scale = 1;
   ReferenceShape shape = ReferenceShape::kMultiSine;
@@ -412,6 +413,7 @@ int ParseArguments(int argc, char** argv, Arguments* args) {
     else if (!std::strcmp(argv[i], "--speed")) args->speed = true;
     else if (!std::strcmp(argv[i], "--verbose")) args->verbose = true;
     else if (!std::strcmp(argv[i], "--no-supply-sensor")) args->supply_sensor = false;
+    else if (!std::strcmp(argv[i], "--search-unstructured")) args->search_unstructured = true;
     else if (!std::strcmp(argv[i], "--rig") && i + 1 < argc) args->only = argv[++i];
     else if (!std::strcmp(argv[i], "--case") && i + 1 < argc) args->only_case = argv[++i];
     else if (!std::strcmp(argv[i], "--duration") || !std::strcmp(argv[i], "--rate") || !std::strcmp(argv[i], "--noise")) {
@@ -450,6 +452,7 @@ bool Describe(Rig* rig, std::string* valve) {
 
 dg::DiagnoseOptions Options(const Arguments& args) {
   dg::DiagnoseOptions o;
+  o.search_unstructured = args.search_unstructured;
   if (args.verbose) o.progress = [](const std::string& line) { std::fprintf(stderr, "%s\n", line.c_str()); };
   return o;
 }
