@@ -183,9 +183,12 @@ void VerdictBox(const dg::Diagnosis& d, const DiagnoseLogOptions& o, std::ostrin
   } else if (d.verdict == "none") {
     kind = "none";
     headline = "No unmodelled effect found";
-    explanation = std::string("No candidate effect improves the held-out fit") +
-                  (u.present ? ", yet what is left is structured and above the floor (below)."
-                             : "; what is left is within the noise floor or does not depend on the states.");
+    explanation = d.search != "searched"
+                      ? "What the model leaves is within the noise floor's margin and depends on no state, so no effect was searched "
+                        "(<code>--search-unstructured</code> searches all the same)."
+                      : std::string("No candidate effect improves the held-out fit") +
+                            (u.present ? ", yet what is left is structured and above the floor (below)."
+                                       : "; what is left is within the noise floor or does not depend on the states.");
   } else {
     kind = u.present ? "partial" : "effect";
     headline = "Effect found: " + effects;
