@@ -534,9 +534,11 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     }
   }
   // nothing to explain (diagnose.h): the gap within the floor's margin and no signal's residual
-  // dependent on a state beyond noise
+  // dependent on a state beyond noise; never on a floor that could not be estimated (NaN or 0
+  // would make every residual look within it)
   const Unexplained start = DescribeResidual(*held, held_gap, base_held, {}, {}, {}, {}, out.noise_floor, options.floor_multiple);
-  if (!options.search_unstructured && !start.above_floor && !start.structured) {
+  const bool floor_known = std::isfinite(out.noise_floor.floor) && out.noise_floor.floor > 0;
+  if (!options.search_unstructured && floor_known && !start.above_floor && !start.structured) {
     out.search = std::string(found_effects.empty() ? "not searched: the model's" : "not searched: the calibrated model's") +
                  " held-out gap is within the floor's margin and its residual depends on no state, command or lag beyond noise on any "
                  "signal, so no effect has anything to explain";
