@@ -49,7 +49,8 @@ nlohmann::json NoiseFloorJson(const dg::Diagnosis& d) {
 }
 
 nlohmann::json UnexplainedJson(const dg::Unexplained& u) {
-  nlohmann::json out = {{"present", u.present}, {"above_floor", u.above_floor}, {"structured", u.structured}, {"gap", u.gap}, {"floor", u.floor}, {"ratio_to_floor", Number(u.gap / u.floor)},
+  nlohmann::json out = {{"present", u.present}, {"above_floor", u.above_floor}, {"structured", u.structured},
+                        {"gap", u.gap}, {"floor", u.floor}, {"ratio_to_floor", Number(u.gap / u.floor)},
                         {"side", u.side.empty() ? nlohmann::json(nullptr) : nlohmann::json(u.side)},
                         {"mechanical_side_ratio", Number(u.mechanical_ratio)}, {"pneumatic_side_ratio", Number(u.pneumatic_ratio)},
                         {"full_ratio", Number(u.full_ratio)}, {"summary", u.summary}};
