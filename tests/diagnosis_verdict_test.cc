@@ -41,6 +41,24 @@ TEST(NoiseFloor, SecondDifferencesRecoverWhiteNoiseUnderASlowSignal) {
   EXPECT_NEAR(SensorNoise(ramp), 0, 1e-9);
 }
 
+// Each signal's gap is weighed against its own floor: two pressures at their floors of 0.01 and a
+// position at four times its floor of 0.002 are sqrt((1 + 1 + 16) / 3) = sqrt(6) = 2.449 floors,
+// where the plain ratio of the means, sqrt(2.64e-4 / 2.04e-4) = 1.138, lets the pressures' larger
+// floors hide the position. The discretisation gap adds to every signal's floor; a signal without
+// a floor leaves the ratio unknown.
+TEST(NoiseFloor, EachSignalIsWeighedAgainstItsOwnFloor) {
+  NoiseFloor f;
+  f.signal_floor = {0.01, 0.01, 0.002};
+  const std::vector<double> gap = {0.01, 0.01, 0.008};
+  EXPECT_NEAR(GapOverFloor(gap, f), std::sqrt(6.0), 1e-12);
+  f.discretisation_gap = 0.002;  // floors^2 1.04e-4, 1.04e-4, 8e-6: ratios^2 0.9615, 0.9615, 8
+  EXPECT_NEAR(GapOverFloor(gap, f), std::sqrt((2 * 1e-4 / 1.04e-4 + 6.4e-5 / 8e-6) / 3), 1e-12);
+  f.signal_floor[1] = 0;
+  f.discretisation_gap = 0;
+  EXPECT_TRUE(std::isnan(GapOverFloor(gap, f)));
+  EXPECT_TRUE(std::isnan(GapOverFloor({0.01, 0.01}, f)));  // a gap per signal, or none
+}
+
 // A prediction that starts each window from the measured (noisy) state and is otherwise exact:
 // its first row's error is n_start - n_next, of standard deviation sqrt(2) sigma, and the first-row
 // estimate gives sigma (400 windows: the median's error about 6 %).
@@ -203,24 +221,45 @@ TEST(ResidualStructure, AStateDependentResidualIsStructuredAndNoiseIsNot) {
   EXPECT_FALSE(w.signals[kPosition].structured) << w.summary;
   EXPECT_FALSE(w.structured);
   EXPECT_FALSE(w.present);
-  // its gap, 0.5 mm RMS over the scale of 20 mm on one of three signals, 0.025 / sqrt(3) = 0.0144,
-  // is about 14 times the floor of 0.001
-  EXPECT_NEAR(w.gap / w.floor, 14.4, 1.0);
+  // its gap, 0.5 mm RMS over the scale of 20 mm on one of three signals each of floor 0.001, is
+  // about 0.025 / 0.001 / sqrt(3) = 14.4 floors
+  EXPECT_NEAR(w.ratio, 14.4, 1.0);
   EXPECT_TRUE(w.above_floor) << w.summary;
   EXPECT_EQ(VerdictWithoutEffect(w), "unexplained");
   EXPECT_NE(w.summary.find("drift"), std::string::npos) << w.summary;
 }
 
-// The same structured residual within the floor's margin is not unexplained: a gap of 1.5 floors.
+// The same structured residual within the floor's margin is not unexplained: a gap of 1.5 floors
+// (x's gap 1.5 sqrt(3) times its floor, the pressures' none).
 TEST(ResidualStructure, AGapWithinTheFloorMarginIsNotUnexplained) {
   const SyntheticResidual s = MakeResidual([](double x, int) { return x > 0 ? 5e-4 : -5e-4; }, 1e-3);
   NoiseFloor floor = s.floor;
-  floor.floor = s.full.gap / 1.5;
+  const double f = s.full.signal_gap[kPosition] / (1.5 * std::sqrt(3.0));
+  floor.signal_floor = {f, f, f};
+  floor.floor = f;
   const Unexplained u = DescribeResidual(s.meas, s.g, s.full, {}, {}, {}, {}, floor, 2);
+  EXPECT_NEAR(u.ratio, 1.5, 1e-12);
   EXPECT_TRUE(u.signals[kPosition].structured);
   EXPECT_FALSE(u.above_floor);
   EXPECT_FALSE(u.present);
   EXPECT_EQ(VerdictWithoutEffect(u), "none");
+}
+
+// A gap on one signal is not diluted by the others' larger floors: x's residual at 4 floors beside
+// pressures of ten times its floor is above the margin (sqrt(16 / 3) = 2.31 floors), though the
+// log's gap is 0.23 times the log's floor.
+TEST(ResidualStructure, AGapOnOneSignalIsWeighedAgainstItsOwnFloor) {
+  const SyntheticResidual s = MakeResidual([](double x, int) { return x > 0 ? 5e-4 : -5e-4; }, 1e-3);
+  NoiseFloor floor = s.floor;
+  const double f = s.full.signal_gap[kPosition] / 4;
+  floor.signal_floor = {10 * f, 10 * f, f};
+  floor.floor = std::sqrt((100 + 100 + 1) / 3.0) * f;
+  const Unexplained u = DescribeResidual(s.meas, s.g, s.full, {}, {}, {}, {}, floor, 2);
+  EXPECT_NEAR(u.ratio, 4 / std::sqrt(3.0), 1e-12);
+  EXPECT_NEAR(u.gap / u.floor, 4 / std::sqrt(201.0), 1e-12);
+  EXPECT_TRUE(u.above_floor);
+  EXPECT_TRUE(u.present);
+  EXPECT_EQ(VerdictWithoutEffect(u), "unexplained");
 }
 
 // --- implausible and undetermined fits ----------------------------------------------------------
@@ -453,7 +492,7 @@ TEST(DiagnosisVerdict, PhysicsOutsideTheLibraryIsUnexplained) {
   EXPECT_EQ(d.verdict, "unexplained") << d.unexplained.summary;
   EXPECT_TRUE(d.effects.empty());
   EXPECT_TRUE(d.unexplained.present);
-  EXPECT_GT(d.unexplained.gap, o.floor_multiple * d.unexplained.floor);
+  EXPECT_GT(d.unexplained.ratio, o.floor_multiple);
   EXPECT_EQ(d.unexplained.side, "mechanical") << d.unexplained.summary;
   const ResidualStructure& x = d.unexplained.signals[kPosition];
   EXPECT_TRUE(x.structured);

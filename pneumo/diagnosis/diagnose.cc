@@ -508,6 +508,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
       base_held = out.before.full;
     }
     out.heldout_gap_calibrated = base_held.gap;
+    out.heldout_signal_gap_calibrated = base_held.signal_gap;
   }
   out.calibration_scenario = ScenarioOf(found_effects, -1);
   {

@@ -209,6 +209,7 @@ struct Diagnosis {
   std::string calibration_status = "off";
   std::vector<CalibratedParameter> calibration;
   double heldout_gap_calibrated = kNotComputed;
+  std::vector<double> heldout_signal_gap_calibrated;  // per signal (Evaluated::signal_gap); empty if not calibrated
   NoiseFloor noise_floor;    // of the held-out log, with the calibrated model
   Unexplained unexplained;   // what the verdict's model leaves on the held-out log
   std::vector<Alternative> alternatives;

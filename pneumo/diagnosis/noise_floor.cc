@@ -97,6 +97,18 @@ std::vector<double> FirstRowNoise(const Measurements& meas, const Windows& windo
   return sigma;
 }
 
+double GapOverFloor(const std::vector<double>& signal_gap, const NoiseFloor& floor) {
+  const size_t n = floor.signal_floor.size();
+  if (n == 0 || signal_gap.size() != n) return std::nan("");
+  double sum = 0;
+  for (size_t s = 0; s < n; ++s) {
+    const double f2 = floor.signal_floor[s] * floor.signal_floor[s] + floor.discretisation_gap * floor.discretisation_gap;
+    if (!(f2 > 0) || !std::isfinite(f2) || !std::isfinite(signal_gap[s])) return std::nan("");
+    sum += signal_gap[s] * signal_gap[s] / f2;
+  }
+  return std::sqrt(sum / static_cast<double>(n));
+}
+
 NoiseFloor EstimateNoiseFloor(const mjModel* m, const SignalModel& sensors, const Measurements& meas, const GapOptions& g,
                               const Evaluated& base, double discretisation_gap) {
   NoiseFloor f;

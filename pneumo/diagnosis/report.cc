@@ -50,7 +50,7 @@ nlohmann::json NoiseFloorJson(const dg::Diagnosis& d) {
 
 nlohmann::json UnexplainedJson(const dg::Unexplained& u) {
   nlohmann::json out = {{"present", u.present}, {"above_floor", u.above_floor}, {"structured", u.structured},
-                        {"gap", u.gap}, {"floor", u.floor}, {"ratio_to_floor", Number(u.gap / u.floor)},
+                        {"gap", u.gap}, {"floor", u.floor}, {"ratio_to_floor", Number(u.ratio)},
                         {"side", u.side.empty() ? nlohmann::json(nullptr) : nlohmann::json(u.side)},
                         {"mechanical_side_ratio", Number(u.mechanical_ratio)}, {"pneumatic_side_ratio", Number(u.pneumatic_ratio)},
                         {"full_ratio", Number(u.full_ratio)}, {"summary", u.summary}};
@@ -137,10 +137,10 @@ std::pair<std::string, double> DisplayUnit(const std::string& signal) {
   return signal.find(".p_") != std::string::npos ? std::pair<std::string, double>{"kPa", 1e-3} : std::pair<std::string, double>{"mm", 1e3};
 }
 
-// "1.772 (209 &times; the floor)"
-std::string GapAgainstFloor(double gap, double floor) {
-  if (!std::isfinite(gap) || !(floor > 0)) return Format("%.4f", gap);
-  return Format("%.4f", gap) + " <span class=\"ratio\">= " + Format("%.3g", gap / floor) + " &times; the floor</span>";
+// "1.772 (209 &times; the floor)", ratio the gap over the floor signal by signal (GapOverFloor)
+std::string GapAgainstFloor(double gap, double ratio) {
+  if (!std::isfinite(gap) || !std::isfinite(ratio)) return Format("%.4f", gap);
+  return Format("%.4f", gap) + " <span class=\"ratio\">= " + Format("%.3g", ratio) + " &times; the floor</span>";
 }
 
 std::string ParameterList(const std::vector<dg::ParameterResult>& parameters) {
@@ -169,6 +169,7 @@ std::string AfterModel(const dg::Diagnosis& d) {
 void VerdictBox(const dg::Diagnosis& d, const DiagnoseLogOptions& o, std::ostringstream& h) {
   const dg::Unexplained& u = d.unexplained;
   const double floor = d.noise_floor.floor;
+  auto ratio = [&](const std::vector<double>& signal_gap) { return dg::GapOverFloor(signal_gap, d.noise_floor); };
   std::string effects;
   for (const std::string& e : d.effects) effects += (effects.empty() ? "" : " and ") + e;
   std::string kind, headline, explanation;
@@ -201,20 +202,20 @@ void VerdictBox(const dg::Diagnosis& d, const DiagnoseLogOptions& o, std::ostrin
     << Escape(d.verdict) << "</code>. " << explanation << "</p>\n";
   // the held-out gaps against the noise floor
   h << "<table class=\"gaps\"><tr><th>held-out gap of</th><th>gap</th><th>against the noise floor " << Format("%.4f", floor) << "</th></tr>\n";
-  h << "<tr><td>the model as given</td><td>" << Format("%.4f", d.heldout_gap_before) << "</td><td>" << Format("%.3g", d.heldout_gap_before / floor)
+  h << "<tr><td>the model as given</td><td>" << Format("%.4f", d.heldout_gap_before) << "</td><td>" << Format("%.3g", ratio(d.before.full.signal_gap))
     << " &times;</td></tr>\n";
   if (Calibrated(d)) {
     h << "<tr><td>the calibrated model (its nominal parameters refitted)</td><td>" << Format("%.4f", d.heldout_gap_calibrated) << "</td><td>"
-      << Format("%.3g", d.heldout_gap_calibrated / floor) << " &times;</td></tr>\n";
+      << Format("%.3g", ratio(d.heldout_signal_gap_calibrated)) << " &times;</td></tr>\n";
   } else {
     h << "<tr><td>the calibrated model</td><td colspan=\"2\" class=\"text note\">calibration " << Escape(d.calibration_status) << "</td></tr>\n";
   }
   h << "<tr><td>the verdict's model (" << Escape(AfterModel(d)) << ")</td><td>" << Format("%.4f", d.heldout_gap_after) << "</td><td><b>"
-    << Format("%.3g", d.heldout_gap_after / floor) << " &times;</b> ("
+    << Format("%.3g", ratio(d.after.full.signal_gap)) << " &times;</b> ("
     << Format("%.0f", 100 * (d.heldout_gap_before - d.heldout_gap_after) / d.heldout_gap_before) << " % smaller than as given)</td></tr>\n</table>\n";
   h << "<p class=\"note\">A gap within " << Format("%.3g", o.diagnose.floor_multiple)
     << " &times; the noise floor is explained: the floor is the gap a perfect model would still leave on this log (sensor noise and the "
-       "model's own discretisation, table below).</p>\n";
+       "model's own discretisation, table below). Each signal's gap is weighed against its own floor.</p>\n";
   if (!u.summary.empty()) h << "<p class=\"summary\"><b>What is left, in words:</b> " << Escape(u.summary) << "</p>\n";
   if (!d.alternatives.empty()) {
     h << "<p><b>Ambiguous: " << d.alternatives.size() << " explanations fit the held-out log about equally well</b> (their &Delta;IC "
@@ -240,7 +241,7 @@ void UnexplainedSection(const dg::Diagnosis& d, const DiagnoseLogOptions& o, std
   const dg::Unexplained& u = d.unexplained;
   const double multiple = o.diagnose.floor_multiple;
   h << "<h2 id=\"unexplained\">What is left unexplained</h2>\n<p>The residual (simulated &minus; measured) of the verdict's model on the held-out "
-       "log: its gap " << GapAgainstFloor(u.gap, u.floor) << " (noise floor " << Format("%.4f", u.floor) << ")"
+       "log: its gap " << GapAgainstFloor(u.gap, u.ratio) << " (noise floor " << Format("%.4f", u.floor) << ")"
     << (u.present ? ", structured: physics is missing." : ", not structured beyond noise.") << "</p>\n";
   // which side of the model fails
   auto side = [&](const char* name, const char* what, double ratio) {
@@ -256,7 +257,7 @@ void UnexplainedSection(const dg::Diagnosis& d, const DiagnoseLogOptions& o, std
   side("full model", "every signal from the measured state at each window's start", u.full_ratio);
   h << "</table>\n<p>";
   if (!u.present) {
-    h << (u.gap > multiple * u.floor ? "What is left does not depend on the states beyond noise"
+    h << (u.above_floor ? "What is left does not depend on the states beyond noise"
                                      : "What is left is within " + Format("%.3g", multiple) + " &times; the noise floor")
       << ", so this split does not point at missing physics.";
   } else if (u.side == "mechanical") {
@@ -318,7 +319,7 @@ void CalibrationSection(const dg::Diagnosis& d, std::ostringstream& h) {
        "(flow coefficient, critical ratio, dead volumes, polytropic index, the joint's damping) are refitted on the training log: a gap "
        "that this removes is a calibration, not an unmodelled effect. Status: <b>"
     << Escape(d.calibration_status) << "</b>";
-  if (Calibrated(d)) h << "; held-out gap of the calibrated model " << GapAgainstFloor(d.heldout_gap_calibrated, d.noise_floor.floor);
+  if (Calibrated(d)) h << "; held-out gap of the calibrated model " << GapAgainstFloor(d.heldout_gap_calibrated, dg::GapOverFloor(d.heldout_signal_gap_calibrated, d.noise_floor));
   h << ".</p>\n";
   if (d.calibration.empty()) return;
   h << "<table><tr><th>parameter</th><th>nominal</th><th>fitted</th><th>change</th><th>standard error</th><th>unit</th><th>at the bound "

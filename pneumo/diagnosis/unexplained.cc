@@ -119,7 +119,9 @@ Unexplained DescribeResidual(const Measurements& meas, const GapOptions& g, cons
       worse(&u.pneumatic_ratio, pneumatic_gap[s] / f);
     }
   }
-  u.above_floor = u.gap > floor_multiple * u.floor;
+  u.ratio = GapOverFloor(full.signal_gap, floor);
+  if (!std::isfinite(u.ratio)) u.ratio = u.gap / u.floor;  // no floor per signal: the log's
+  u.above_floor = u.ratio > floor_multiple;
   u.structured = structured;
   u.present = u.above_floor && structured;
   for (size_t k = 0; k < regime_names.size() && k < regime_gap.size(); ++k) {
@@ -133,8 +135,8 @@ Unexplained DescribeResidual(const Measurements& meas, const GapOptions& g, cons
            : u.full_ratio > floor_multiple ? "sensors"
                                            : "";
   // in words
-  std::string text = Fixed("The gap %.4f is ", u.gap) + Fixed("%.1f times the noise floor", u.gap / std::max(u.floor, 1e-300)) +
-                     Fixed(" (%.4f)", u.floor);
+  std::string text = Fixed("The gap %.4f", u.gap) + Fixed(" (noise floor %.4f) is ", u.floor) +
+                     Fixed("%.1f times the floor, each signal against its own", u.ratio);
   text += u.present       ? ", and structured."
           : structured    ? ", structured but within the floor's margin."
           : u.above_floor ? ", well above it, but its residuals do not depend on the states, the commands or their lags beyond noise: "

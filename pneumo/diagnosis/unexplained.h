@@ -50,10 +50,11 @@ struct ResidualStructure {
 };
 
 struct Unexplained {
-  bool above_floor = false;   // gap > floor_multiple floor
+  bool above_floor = false;   // ratio > floor_multiple
   bool structured = false;    // some signal's residual is (ResidualStructure::structured)
   bool present = false;       // both: a structured residual well above the floor
   double gap = 0, floor = 0;  // the log's, normalised
+  double ratio = 0;           // the gap over the floor, each signal against its own (GapOverFloor, noise_floor.h)
   std::vector<ResidualStructure> signals;
   std::vector<std::pair<std::string, double>> regimes;  // regimes whose gap is over 1.25 times the whole's: (name, ratio)
   // "mechanical", "pneumatic", "mechanical and pneumatic", "sensors", or "" (every side within its floor)
@@ -66,7 +67,8 @@ struct Unexplained {
 };
 
 // The verdict where no effect is established (the definitions, docs/effects.md): `none`
-// when the gap is within floor_multiple times the floor, `unexplained` above it, whether or not the
+// when the gap is within floor_multiple times the floor (Unexplained::ratio), `unexplained` above
+// it, whether or not the
 // residual depends on the states (a drift in time or a disturbance need not).
 std::string VerdictWithoutEffect(const Unexplained& u);
 
