@@ -39,8 +39,8 @@
 // --reference open-loop: no feedback from the truth at all, the valves driven by tests/reference's excitation of the
 // rig (Excitation(), one command per tick, each log's seed), which an independent simulator's log could be;
 // --no-supply-sensor: the logs without their p_S column, as from a robot with no supply pressure sensor;
-// --search-unstructured: the effects searched even where the calibrated gap is within the floor's margin and
-// unstructured (DiagnoseOptions::search_unstructured); --verbose: the diagnosis' progress on stderr)
+// --search-unstructured: the effects searched even where the calibrated gap (or after a round the found
+// effects') is within the floor's margin and unstructured (DiagnoseOptions::search_unstructured); --verbose: the diagnosis' progress on stderr)
 // bench_diagnose --speed [--rig R]: the wall time of diagnosing a 20 s training log and a 12 s held-out log
 // of each rig (a laminar leak) logged at 100 Hz, 500 Hz and 1 kHz, on 2 threads.
 #include <algorithm>

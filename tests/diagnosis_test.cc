@@ -1102,19 +1102,25 @@ TEST(DiagnosisFit, RecoversAWallHeatConductanceOverTheHistory) {
 }
 
 // End to end: a biased p_P sensor (offset 15 kPa, gain 1.03) is named, its offset and gain are
-// recovered within 4 standard errors, and the held-out gap shrinks; the same rig without the
-// bias gives `none`, without a search (its residual depends on no state beyond noise: diagnose.h),
-// and searched all the same (DiagnoseOptions::search_unstructured), `none` again.
+// recovered within 4 standard errors, and the held-out gap shrinks; what the bias leaves has no
+// structure and is within the floor's margin, so no second round is searched though two effects
+// may be found (Round::search_ends). The same rig without the bias gives `none`, without a search
+// (its residual depends on no state beyond noise: diagnose.h), and searched all the same
+// (DiagnoseOptions::search_unstructured), `none` again.
 // (A part of the library keeps the test short: bench_diagnose runs all of it.)
 TEST(DiagnosisEndToEnd, FindsABiasedPressureSensorAndNothingOnACleanLog) {
   DiagnoseOptions o;
-  o.max_effects = 1;
+  o.max_effects = 2;
   o.effects = {"sensor_bias", "leakage", "payload", "friction"};
   log::Log train = RigCLog(1, 3.0, 15000, 1.03), held = RigCLog(2, 3.0, 15000, 1.03);
   Diagnosis d = Diagnose(kRigC, train, &held, o);
   ASSERT_EQ(d.error, "");
   ASSERT_EQ(d.effects.size(), 1u);
   EXPECT_EQ(d.effects[0], "sensor_bias");
+  ASSERT_EQ(d.rounds.size(), 1u);
+  EXPECT_NE(d.rounds[0].search_ends, "");
+  EXPECT_FALSE(d.unexplained.above_floor) << d.unexplained.summary;
+  EXPECT_FALSE(d.unexplained.structured) << d.unexplained.summary;
   ASSERT_EQ(d.parameters.size(), 2u);
   EXPECT_EQ(d.parameters[0].name, "cyl.p_P:offset");
   EXPECT_NEAR(d.parameters[0].value, 15000, 4 * d.parameters[0].standard_error);

@@ -44,7 +44,8 @@ Command AddDiagnoseCommand(CLI::App& app) {
                        "iterations of the calibration of the model's nominal parameters before the effects (0: none)")
       ->capture_default_str()->check(CLI::Range(0, 200));
   diagnose->add_flag("--search-unstructured", diagnose_options.diagnose.search_unstructured,
-                     "search the effects even where the calibrated model's residual depends on no state beyond noise (default: not searched, verdict none)");
+                     "search the effects even where the calibrated model's (or the found effects') residual is within the floor's margin and "
+                     "depends on no state beyond noise (default: not searched, or no further round)");
   diagnose->add_option("--horizon", diagnose_options.diagnose.horizon_s, "prediction window, s")->capture_default_str()
       ->check(CLI::Range(0.005, 10.0));
   diagnose->add_option("--max-effects", diagnose_options.diagnose.max_effects, "effects searched one after the other")

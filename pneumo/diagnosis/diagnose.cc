@@ -536,10 +536,15 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
   }
   // nothing to explain (diagnose.h): the gap within the floor's margin and no signal's residual
   // dependent on a state beyond noise; never on a floor that could not be estimated (NaN or 0
-  // would make every residual look within it)
-  const Unexplained start = DescribeResidual(*held, held_gap, base_held, {}, {}, {}, {}, out.noise_floor, options.floor_multiple);
+  // would make every residual look within it). Before the first round, and after each round
+  // that found an effect: what the found effects leave is then what a further one could take up
   const bool floor_known = std::isfinite(out.noise_floor.floor) && out.noise_floor.floor > 0;
-  if (!options.search_unstructured && floor_known && !start.above_floor && !start.structured) {
+  auto nothing_to_explain = [&](const Evaluated& held_prediction) {
+    if (options.search_unstructured || !floor_known) return false;
+    const Unexplained u = DescribeResidual(*held, held_gap, held_prediction, {}, {}, {}, {}, out.noise_floor, options.floor_multiple);
+    return !u.above_floor && !u.structured;
+  };
+  if (nothing_to_explain(base_held)) {
     out.search = std::string(found_effects.empty() ? "not searched: the model's" : "not searched: the calibrated model's") +
                  " held-out gap is within the floor's margin and its residual depends on no state, command or lag beyond noise on any "
                  "signal, so no effect has anything to explain";
@@ -940,8 +945,14 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     }
     say("round " + std::to_string(round + 1) + " verdict: " + r.accepted);
     const bool stop = r.accepted == "none";
+    if (!stop && effect_count() < options.max_effects && nothing_to_explain(base_held)) {
+      r.search_ends = "what the found effects leave is within the floor's margin and depends on no state, command or lag beyond "
+                      "noise on any signal, so a further effect has nothing to explain";
+      say("round " + std::to_string(round + 1) + ": no further round: " + r.search_ends);
+    }
+    const bool ends = stop || !r.search_ends.empty();
     out.rounds.push_back(std::move(r));
-    if (stop) break;
+    if (ends) break;
   }
   out.effects = EffectsOf(found_effects);
   for (const FoundEffect& f : found_effects) {

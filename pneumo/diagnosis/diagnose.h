@@ -111,8 +111,9 @@ struct DiagnoseOptions {
   double floor_multiple = 2;
   // false: where the (calibrated) model's held-out gap is within floor_multiple times the floor and
   // its residual depends on no state, command or lag beyond noise on any signal (Unexplained,
-  // unexplained.h), the effects are not searched and the verdict is `none` (Diagnosis::search).
-  // true: searched all the same
+  // unexplained.h), the effects are not searched and the verdict is `none` (Diagnosis::search);
+  // where the found effects leave such a residual after a round, no further round is searched
+  // (Round::search_ends). true: searched all the same
   bool search_unstructured = false;
   // two explanations whose dIC differ by less than this are both an answer (Diagnosis::alternatives):
   // short of Kass and Raftery's "very strong" evidence for one over the other
@@ -166,6 +167,9 @@ struct Round {
   // not tried again; "" when none is. Its dIC and held-out improvement given the others.
   std::string dropped;
   double dropped_delta_ic = kNotComputed, dropped_improvement = kNotComputed;
+  // why no round follows where one could (an effect accepted, room for more): what the found
+  // effects leave has nothing for a further one to explain (DiagnoseOptions::search_unstructured); "" otherwise
+  std::string search_ends;
 };
 
 // Per held-out row, which regimes it belongs to (a row may be in several).

@@ -431,6 +431,7 @@ void RoundSection(const dg::Diagnosis& d, size_t r, std::ostringstream& h) {
       << "(&Delta;IC " << Format("%.1f", round.dropped_delta_ic) << ", " << Format("%.1f", 100 * round.dropped_improvement)
       << " % of the held-out gap).";
   }
+  if (!round.search_ends.empty()) h << " No further round: " << Escape(round.search_ends) << ".";
   h << "</p>\n";
   h << "<img src=\"ranking_" << r + 1 << ".png\" alt=\"ranking\">\n<table><tr><th>effect</th><th>form</th><th>held-out gap</th>"
        "<th>shrink</th><th>&Delta;IC</th><th>explains</th><th>parameters</th><th>status</th></tr>\n";
@@ -537,6 +538,7 @@ nlohmann::json DiagnosisJson(const dg::Diagnosis& d) {
                           {"delta_ic", Number(r.dropped_delta_ic)},
                           {"improvement_pct", Number(100 * r.dropped_improvement)}};
     }
+    if (!r.search_ends.empty()) round["search_ends"] = r.search_ends;
     round["ranking"] = nlohmann::json::array();
     for (const dg::CandidateResult& c : r.ranking) {
       round["ranking"].push_back({{"effect", c.effect},
