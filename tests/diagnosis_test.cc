@@ -1131,13 +1131,13 @@ TEST(DiagnosisEndToEnd, FindsABiasedPressureSensorAndNothingOnACleanLog) {
   const Diagnosis unsearched = Diagnose(kRigC, clean_train, &clean_held, o);
   ASSERT_EQ(unsearched.error, "");
   EXPECT_EQ(unsearched.verdict, "none");
-  EXPECT_NE(unsearched.search, "searched");
+  EXPECT_NE(unsearched.not_searched, "");
   EXPECT_TRUE(unsearched.rounds.empty());
   for (const ResidualStructure& s : unsearched.unexplained.signals) EXPECT_FALSE(s.structured) << s.signal;
   o.search_unstructured = true;
   Diagnosis clean = Diagnose(kRigC, clean_train, &clean_held, o);
   ASSERT_EQ(clean.error, "");
-  EXPECT_EQ(clean.search, "searched");
+  EXPECT_EQ(clean.not_searched, "");
   ASSERT_FALSE(clean.rounds.empty());
   EXPECT_TRUE(clean.effects.empty()) << clean.effects[0];
   // the rule skipped only a search that finds nothing: the same model, as calibrated

@@ -545,13 +545,13 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     return !u.above_floor && !u.structured;
   };
   if (nothing_to_explain(base_held)) {
-    out.search = std::string(found_effects.empty() ? "not searched: the model's" : "not searched: the calibrated model's") +
-                 " held-out gap is within the floor's margin and its residual depends on no state, command or lag beyond noise on any "
-                 "signal, so no effect has anything to explain";
-    say("effects " + out.search);
+    out.not_searched = std::string(found_effects.empty() ? "the model's" : "the calibrated model's") +
+                       " held-out gap is within the floor's margin and its residual depends on no state, command or lag beyond noise on "
+                       "any signal, so no effect has anything to explain";
+    say("effects not searched: " + out.not_searched);
   }
   auto effect_count = [&] { return static_cast<int>(EffectsOf(found_effects).size()); };
-  const int max_rounds = out.search == "searched" ? 2 * options.max_effects : 0;  // a dropped effect frees a place; bounded all the same
+  const int max_rounds = out.not_searched.empty() ? 2 * options.max_effects : 0;  // a dropped effect frees a place; bounded all the same
   for (int round = 0; round < max_rounds && effect_count() < options.max_effects; ++round) {
     Round r;
     r.model_effects = EffectsOf(found_effects);

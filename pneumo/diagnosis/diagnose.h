@@ -111,7 +111,7 @@ struct DiagnoseOptions {
   double floor_multiple = 2;
   // false: where the (calibrated) model's held-out gap is within floor_multiple times the floor and
   // its residual depends on no state, command or lag beyond noise on any signal (Unexplained,
-  // unexplained.h), the effects are not searched and the verdict is `none` (Diagnosis::search);
+  // unexplained.h), the effects are not searched and the verdict is `none` (Diagnosis::not_searched);
   // where the found effects leave such a residual after a round, no further round is searched
   // (Round::search_ends). true: searched all the same
   bool search_unstructured = false;
@@ -225,8 +225,8 @@ struct Diagnosis {
   double discretisation_gap = kNotComputed;
   std::vector<std::string> signal_labels;
   std::vector<double> signal_scale;
-  // "searched", or why the effects were not searched (DiagnoseOptions::search_unstructured)
-  std::string search = "searched";
+  // why the effects were not searched (DiagnoseOptions::search_unstructured); "" where they were
+  std::string not_searched;
   std::vector<Round> rounds;
   Regimes regimes;
   Assessment before, after;

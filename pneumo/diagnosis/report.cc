@@ -185,7 +185,7 @@ void VerdictBox(const dg::Diagnosis& d, const DiagnoseLogOptions& o, std::ostrin
   } else if (d.verdict == "none") {
     kind = "none";
     headline = "No unmodelled effect found";
-    explanation = d.search != "searched"
+    explanation = !d.not_searched.empty()
                       ? "What the model leaves is within the noise floor's margin and depends on no state, so no effect was searched "
                         "(<code>--search-unstructured</code> searches all the same)."
                       : std::string("No candidate effect improves the held-out fit") +
@@ -468,7 +468,9 @@ std::string Html(const dg::Diagnosis& d, const DiagnoseLogOptions& o) {
   WhereSection(d, h);
   if (!left_first) UnexplainedSection(d, o, h);
   for (size_t r = 0; r < d.rounds.size(); ++r) RoundSection(d, r, h);
-  if (d.rounds.empty()) h << "<h2 id=\"rounds\">Candidates</h2><p>Effects " << Escape(d.search) << ".</p>\n";
+  if (d.rounds.empty()) {
+    h << "<h2 id=\"rounds\">Candidates</h2><p>Effects not searched" << (d.not_searched.empty() ? "" : ": " + Escape(d.not_searched)) << ".</p>\n";
+  }
   WhitenessSection(h);
   h << "</body></html>\n";
   return h.str();
@@ -503,7 +505,7 @@ nlohmann::json DiagnosisJson(const dg::Diagnosis& d) {
                   {"noise_floor", NoiseFloorJson(d)},
                   {"unexplained", UnexplainedJson(d.unexplained)},
                   {"alternatives", nlohmann::json::array()},
-                  {"search", d.search},
+                  {"search", d.not_searched.empty() ? std::string("searched") : "not searched: " + d.not_searched},
                   {"heldout_gap_before", d.heldout_gap_before},
                   {"heldout_gap_after", d.heldout_gap_after},
                   {"shrink_pct", 100 * (d.heldout_gap_before - d.heldout_gap_after) / d.heldout_gap_before}};
