@@ -258,7 +258,7 @@ void UnexplainedSection(const dg::Diagnosis& d, const DiagnoseLogOptions& o, std
   h << "</table>\n<p>";
   if (!u.present) {
     h << (u.above_floor ? "What is left does not depend on the states beyond noise"
-                                     : "What is left is within " + Format("%.3g", multiple) + " &times; the noise floor")
+                        : "What is left is within " + Format("%.3g", multiple) + " &times; the noise floor")
       << ", so this split does not point at missing physics.";
   } else if (u.side == "mechanical") {
     h << "It looks <b>mechanical</b>: the forces on the moving parts miss something (a load, a spring, friction, a mechanism), "
@@ -319,7 +319,10 @@ void CalibrationSection(const dg::Diagnosis& d, std::ostringstream& h) {
        "(flow coefficient, critical ratio, dead volumes, polytropic index, the joint's damping) are refitted on the training log: a gap "
        "that this removes is a calibration, not an unmodelled effect. Status: <b>"
     << Escape(d.calibration_status) << "</b>";
-  if (Calibrated(d)) h << "; held-out gap of the calibrated model " << GapAgainstFloor(d.heldout_gap_calibrated, dg::GapOverFloor(d.heldout_signal_gap_calibrated, d.noise_floor));
+  if (Calibrated(d)) {
+    h << "; held-out gap of the calibrated model "
+      << GapAgainstFloor(d.heldout_gap_calibrated, dg::GapOverFloor(d.heldout_signal_gap_calibrated, d.noise_floor));
+  }
   h << ".</p>\n";
   if (d.calibration.empty()) return;
   h << "<table><tr><th>parameter</th><th>nominal</th><th>fitted</th><th>change</th><th>standard error</th><th>unit</th><th>at the bound "
