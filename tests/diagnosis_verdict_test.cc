@@ -224,6 +224,7 @@ TEST(ResidualStructure, AStateDependentResidualIsStructuredAndNoiseIsNot) {
   // its gap, 0.5 mm RMS over the scale of 20 mm on one of three signals each of floor 0.001, is
   // about 0.025 / 0.001 / sqrt(3) = 14.4 floors
   EXPECT_NEAR(w.ratio, 14.4, 1.0);
+  EXPECT_NEAR(w.gap / w.floor, 14.4, 1.0);  // every floor equal: the log's ratio is the same
   EXPECT_TRUE(w.above_floor) << w.summary;
   EXPECT_EQ(VerdictWithoutEffect(w), "unexplained");
   EXPECT_NE(w.summary.find("drift"), std::string::npos) << w.summary;
@@ -493,6 +494,7 @@ TEST(DiagnosisVerdict, PhysicsOutsideTheLibraryIsUnexplained) {
   EXPECT_TRUE(d.effects.empty());
   EXPECT_TRUE(d.unexplained.present);
   EXPECT_GT(d.unexplained.ratio, o.floor_multiple);
+  EXPECT_GT(d.unexplained.gap, o.floor_multiple * d.unexplained.floor);  // and by the log's means too
   EXPECT_EQ(d.unexplained.side, "mechanical") << d.unexplained.summary;
   const ResidualStructure& x = d.unexplained.signals[kPosition];
   EXPECT_TRUE(x.structured);
