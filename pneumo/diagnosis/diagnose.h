@@ -113,7 +113,9 @@ struct DiagnoseOptions {
   // its residual depends on no state, command or lag beyond noise on any signal (Unexplained,
   // unexplained.h), the effects are not searched and the verdict is `none` (Diagnosis::not_searched);
   // where the found effects leave such a residual after a round, no further round is searched
-  // (Round::search_ends). true: searched all the same
+  // (Round::search_ends), and where a form fitted in a round leaves it, no richer form of another
+  // effect, nor a further one of its own if it is itself richer, is fitted after it in that round
+  // (Round::richer_forms_skipped). true: searched all the same
   bool search_unstructured = false;
   // two explanations whose dIC differ by less than this are both an answer (Diagnosis::alternatives):
   // short of Kass and Raftery's "very strong" evidence for one over the other
@@ -148,6 +150,9 @@ struct CandidateResult {
   // screened on the model as given, before the calibration, in the first round of a calibrated
   // diagnosis: it chooses the effects fitted together with the calibration and is no verdict itself
   bool on_model_as_given = false;
+  // it explains the gap, and its held-out residual is within the floor's margin and depends on no
+  // state, command or lag beyond noise (DiagnoseOptions::search_unstructured)
+  bool leaves_nothing_to_explain = false;
   int evaluations = 0;
   double seconds = 0;
 };
@@ -170,6 +175,10 @@ struct Round {
   // why no round follows where one could (an effect accepted, room for more): what the found
   // effects leave has nothing for a further one to explain (DiagnoseOptions::search_unstructured); "" otherwise
   std::string search_ends;
+  // the richer forms (Candidate::refinement) not fitted in this round because a form fitted before
+  // them leaves nothing to explain (diagnose.cc: another effect's form, or a richer form of their
+  // own effect), each with that form and its held-out gap; "" when none was skipped
+  std::string richer_forms_skipped;
 };
 
 // Per held-out row, which regimes it belongs to (a row may be in several).

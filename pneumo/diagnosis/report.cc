@@ -434,6 +434,7 @@ void RoundSection(const dg::Diagnosis& d, size_t r, std::ostringstream& h) {
       << "(&Delta;IC " << Format("%.1f", round.dropped_delta_ic) << ", " << Format("%.1f", 100 * round.dropped_improvement)
       << " % of the held-out gap).";
   }
+  if (!round.richer_forms_skipped.empty()) h << " Richer forms not fitted: " << Escape(round.richer_forms_skipped) << ".";
   if (!round.search_ends.empty()) h << " No further round: " << Escape(round.search_ends) << ".";
   h << "</p>\n";
   h << "<img src=\"ranking_" << r + 1 << ".png\" alt=\"ranking\">\n<table><tr><th>effect</th><th>form</th><th>held-out gap</th>"
@@ -543,6 +544,7 @@ nlohmann::json DiagnosisJson(const dg::Diagnosis& d) {
                           {"delta_ic", Number(r.dropped_delta_ic)},
                           {"improvement_pct", Number(100 * r.dropped_improvement)}};
     }
+    if (!r.richer_forms_skipped.empty()) round["richer_forms_skipped"] = r.richer_forms_skipped;
     if (!r.search_ends.empty()) round["search_ends"] = r.search_ends;
     round["ranking"] = nlohmann::json::array();
     for (const dg::CandidateResult& c : r.ranking) {
@@ -560,6 +562,7 @@ nlohmann::json DiagnosisJson(const dg::Diagnosis& d) {
                                   {"refinement", c.refinement},
                                   {"with_found_effects", c.with_found_effects},
                                   {"on_model_as_given", c.on_model_as_given},
+                                  {"leaves_nothing_to_explain", c.leaves_nothing_to_explain},
                                   {"evaluations", c.evaluations},
                                   {"seconds", c.seconds}});
     }
