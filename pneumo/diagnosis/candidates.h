@@ -87,6 +87,9 @@ struct EffectParameter {
   // fitted as z = ln(value / scale) (lower > 0): for magnitudes known only to a decade or two
   // (conductances, volumes), where a linear step either crawls or overshoots
   bool logarithmic = false;
+  // false: a logarithmic parameter the coarse scan (FitOptions::scan_points) leaves at its initial
+  // value, for a start known to lie in the one basin its range has
+  bool scanned = true;
   // > 0 (a linear parameter): before the fit, tried at lower, lower + scan_step, ... up to upper
   // (FitOptions: the grid scan), for a cost with local minima about that far apart, which a
   // Levenberg-Marquardt start outside the true one's basin cannot leave

@@ -207,7 +207,7 @@ FitPoint ScanLogarithmic(const EffectCost& cost, const Candidate& c, const FitPo
   std::vector<std::string> kinds;       // the units of the logarithmic parameters, in order
   std::vector<int> kind_of(c.parameters.size(), -1);
   for (size_t i = 0; i < c.parameters.size(); ++i) {
-    if (!c.parameters[i].logarithmic) continue;
+    if (!c.parameters[i].logarithmic || !c.parameters[i].scanned) continue;
     auto it = std::find(kinds.begin(), kinds.end(), c.parameters[i].unit);
     kind_of[i] = static_cast<int>(it - kinds.begin());
     if (it == kinds.end()) kinds.push_back(c.parameters[i].unit);
