@@ -1076,9 +1076,9 @@ TEST(DiagnosisFit, RecoversTheSteeperSlopeOfABandAtRatedFlow) {
 
 // heat_transfer's form fitted to a rig B log of the candidates' own equation (one wall conductance,
 // a wall time constant of 0.3 s at mid-stroke): with the gas temperatures estimated over the log's
-// history, it recovers the conductance within 4 standard errors (here 1.93 +- 0.43 W/K for 2.35);
+// history, it recovers the conductance within 4 standard errors (here 1.95 +- 0.45 W/K for 2.35);
 // the same equation with each window's gas started from the warm-up (the form before the history
-// was its only one) is further off (4.78 +- 1.03 W/K here: it makes up for the temperatures the
+// was its only one) is further off (4.80 +- 1.05 W/K here: it makes up for the temperatures the
 // warm-up misses).
 TEST(DiagnosisFit, RecoversAWallHeatConductanceOverTheHistory) {
   std::string error;
