@@ -671,8 +671,8 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     // loop, commands 8 ms late, the armature delays lose every pulse shorter than their opening
     // delay and explained 14.7 % of the gap, a tube 28.2 %; the tube was accepted, and the exact
     // latency, fitted only after it, found half the dead time. Two, not every effect that explains,
-    // bounds the cost: a richer form may simulate the whole log (a supply tank, the gas
-    // temperatures over the history), and on a 20 s rig C log of a leak (bench_diagnose --speed)
+    // bounds the cost: a richer form may simulate the whole log (a supply tank, a valve's delay
+    // line over the history), and on a 20 s rig C log of a leak (bench_diagnose --speed)
     // the tank of the fourth effect cost 37 s of a 124 s diagnosis. An effect ranked lower is
     // refined in a later round if it is among the two best there
     std::map<std::string, double> best_simple;  // each effect's best dIC among its simpler forms
@@ -702,17 +702,21 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     if (!refining.empty()) say("round " + std::to_string(round + 1) + ": richer forms of " + refining);
     // no richer form after a form that leaves nothing to explain (the rule that ends the search,
     // within the round): it could at most shrink a residual already within the floor's margin and
-    // unstructured, no more than a diagnosis can show from this log. Another effect's richer forms
-    // are not fitted once any form leaves that; the effect's own are, until one of them does, since
-    // the verdict takes its effect's best form and a simpler form within the margin can still be a
-    // cruder stand-in for the richer one (the orifice leak for a laminar one: bench_diagnose --speed,
-    // rig A at 100 Hz, 73.3 % of the gap as given against 81.0 %). On rig A's 20 s leak at 1 kHz
-    // (bench_diagnose --speed, 084ed7b) the laminar leak, the first richer form, left 1.0 times the
-    // floor, unstructured; the leak's laws side by side (20.1 s) and the runner-up's supply tank
-    // (34.8 s) came after it, 55 of the diagnosis' 108.5 s
+    // unstructured, no more than a diagnosis can show from this log. The runner-up's richer forms
+    // are not fitted once a form of another effect leaves that; the leader's and the runner-up's
+    // own are, until one of their own richer forms does, since the verdict takes its effect's best
+    // form and a form within the margin can still be a cruder stand-in for the richer one (the
+    // orifice leak for a laminar one: bench_diagnose --speed, rig A at 100 Hz, 73.3 % of the gap as
+    // given against 81.0 %; on bench_diagnose --rig C's laminar leak, the runner-up's deadband with
+    // a slope left the margin first, the leak's laminar form was skipped, and the deadband fitted
+    // with the calibration beat the orifice leak by a dIC of 39: valve_deadband, wrong). On rig A's
+    // 20 s leak at 1 kHz (bench_diagnose --speed, 084ed7b) the orifice and the laminar leak left
+    // the held-out gap at the floor, unstructured; the leak's laws side by side (20.1 s) and the
+    // runner-up's supply tank (34.8 s) came after them, 55 of the diagnosis' 108.5 s
     auto settled_for = [&](const Candidate& c) -> const CandidateResult* {
       for (const CandidateResult& result : r.ranking) {
-        if (result.leaves_nothing_to_explain && (result.effect != c.effect || result.refinement)) return &result;
+        if (!result.leaves_nothing_to_explain) continue;
+        if (result.effect == c.effect ? result.refinement : c.effect != leader) return &result;
       }
       return nullptr;
     };
@@ -769,9 +773,9 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
       // (Candidate::refinement) stands for its effect only with positive evidence over the simpler
       // one, a dIC lower by more than kPositiveEvidence (Kass and Raftery, JASA 90, 1995: 0 to 2 is
       // "not worth more than a bare mention"): fitted with the calibration it costs several times
-      // the simpler form, the gas temperatures' history estimate one simulation of the whole log
-      // per evaluation (on the independent suite's A04 at 20 s, 104 s of a 227 s diagnosis, where
-      // it led the simple form by 0.6)
+      // the simpler form, a history estimate one simulation of the whole log per evaluation (on
+      // the independent suite's A04 at 20 s, heat transfer's gas temperatures over the history,
+      // then a richer form, 104 s of a 227 s diagnosis, where it led the simple form by 0.6)
       constexpr double kPositiveEvidence = 2;
       auto at_far_bound = [&](size_t i) {
         std::vector<double> values;

@@ -22,9 +22,9 @@
 // equations (rig B against tests/reference, RK4 at 1 us) a payload 0.2 % lighter had otherwise
 // "explained" 22 % of a 0.0005 gap that the model's 0.1 ms Euler step leaves. No such candidate: `none`. A richer form of an effect
 // (Candidate::refinement: supply_drop's tank, valve_delay's dead time (its delay line estimated over the history) and exact latency,
-// line_dynamics' transport delay, leakage's laminar leaks and both laws side by side,
-// heat_transfer's gas temperatures estimated over the history) is fitted only in a round that the
-// effect's simpler form leads by dIC or is the runner-up (the best other effect with a richer form
+// line_dynamics' transport delay, leakage's laminar leaks and both laws side by side) is fitted
+// only in a round that the effect's simpler form leads by dIC or is the runner-up (the best other
+// effect with a richer form
 // whose simpler form explains the gap by itself), with the joint refit's iterations (refit_iterations) and a finer scan
 // (refinement_scan_grid_points), or from the round's fits of its simpler forms where its parameters
 // say so (EffectParameter::seed_factor), and then ranked with the rest. In a round with effects
@@ -113,9 +113,9 @@ struct DiagnoseOptions {
   // its residual depends on no state, command or lag beyond noise on any signal (Unexplained,
   // unexplained.h), the effects are not searched and the verdict is `none` (Diagnosis::not_searched);
   // where the found effects leave such a residual after a round, no further round is searched
-  // (Round::search_ends), and where a form fitted in a round leaves it, no richer form of another
-  // effect, nor a further one of its own if it is itself richer, is fitted after it in that round
-  // (Round::richer_forms_skipped). true: searched all the same
+  // (Round::search_ends), and where a form fitted in a round leaves it, no further richer form of
+  // its effect if it is itself richer, nor the runner-up's if it is another effect's, is fitted
+  // after it in that round (Round::richer_forms_skipped). true: searched all the same
   bool search_unstructured = false;
   // two explanations whose dIC differ by less than this are both an answer (Diagnosis::alternatives):
   // short of Kass and Raftery's "very strong" evidence for one over the other
@@ -176,8 +176,8 @@ struct Round {
   // effects leave has nothing for a further one to explain (DiagnoseOptions::search_unstructured); "" otherwise
   std::string search_ends;
   // the richer forms (Candidate::refinement) not fitted in this round because a form fitted before
-  // them leaves nothing to explain (diagnose.cc: another effect's form, or a richer form of their
-  // own effect), each with that form and its held-out gap; "" when none was skipped
+  // them leaves nothing to explain (diagnose.cc: a richer form of their own effect, or for the
+  // runner-up's, any other effect's form), each with that form and its held-out gap; "" when none was
   std::string richer_forms_skipped;
 };
 
