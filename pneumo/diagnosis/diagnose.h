@@ -24,8 +24,8 @@
 // (Candidate::refinement: supply_drop's tank, valve_delay's dead time (its delay line estimated over the history) and exact latency,
 // line_dynamics' transport delay, leakage's laminar leaks and both laws side by side) is fitted
 // only in a round that the effect's simpler form leads by dIC or is the runner-up (the best other
-// effect with a richer form
-// whose simpler form explains the gap by itself), with the joint refit's iterations (refit_iterations) and a finer scan
+// effect with a richer form whose simpler form explains the gap by itself), with the joint refit's
+// iterations (refit_iterations) and a finer scan
 // (refinement_scan_grid_points), or from the round's fits of its simpler forms where its parameters
 // say so (EffectParameter::seed_factor), and then ranked with the rest. In a round with effects
 // found where no candidate explains the gap, every effect with strong evidence (dIC <
