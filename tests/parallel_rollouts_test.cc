@@ -3,8 +3,10 @@
 // edited by key (SetParameter) before they run. Every run's log must be the serial run's, bit for
 // bit. scripts/tsan runs this test under ThreadSanitizer, where any data race between the runs (in
 // the extension's registry of attached models, its per-model caches, or the rollout code) fails it.
+#include <chrono>
 #include <memory>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -72,6 +74,25 @@ TEST(ParallelRollouts, RunsOnCopiesOnTwoThreadsGiveTheSerialRunsBits) {
   ASSERT_GE(p_P, 0);
   EXPECT_NE(serial[0].log->values[static_cast<size_t>(p_P)], serial[2].log->values[static_cast<size_t>(p_P)]);
   EXPECT_NE(serial[1].log->values[static_cast<size_t>(p_P)], serial[3].log->values[static_cast<size_t>(p_P)]);
+}
+
+// ParallelForInOrder (the diagnosis fits its simpler forms side by side with it): then(i) runs once
+// per index, in index order, and only after f(i) has returned, also when the later indices finish
+// first (each f(i) sleeps less than the one before it)
+TEST(ParallelForInOrder, TakesEachResultInIndexOrderOnceItIsDone) {
+  constexpr size_t kJobs = 6;
+  std::vector<int> results(kJobs, -1), taken;
+  ParallelForInOrder(
+      kJobs, 2,
+      [&](size_t i) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(5 * (kJobs - i)));
+        results[i] = static_cast<int>(10 * i);
+      },
+      [&](size_t i) {
+        EXPECT_EQ(results[i], static_cast<int>(10 * i)) << "then(" << i << ") before f(" << i << ") returned";
+        taken.push_back(static_cast<int>(i));
+      });
+  EXPECT_EQ(taken, (std::vector<int>{0, 1, 2, 3, 4, 5}));
 }
 
 }  // namespace

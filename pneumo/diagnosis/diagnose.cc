@@ -9,6 +9,7 @@
 #include <set>
 
 #include "diagnosis/plausibility.h"
+#include "simulation/parallel_for.h"
 
 namespace pneumatic::diagnosis {
 namespace {
@@ -618,23 +619,26 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
                                                 Fixed(", dIC %.1f", result.delta_ic)) +
           ", " + std::to_string(result.evaluations) + " evaluations" + Fixed(", %.1f s", result.seconds));
     };
-    // fits c on the training log and scores it on the held-out log, into r.ranking and tried
-    auto try_candidate = [&](const Candidate& unseeded) {
+    // fits c (seeded: started from the round's fits of its other forms, without the scans) on the
+    // training log with `threads` threads and scores it on the held-out log; its progress lines go
+    // to say_line. Reads neither r.ranking nor tried, so that fits can run side by side
+    auto fit_and_score = [&](const Candidate& c, bool seeded, int threads, const std::function<void(const std::string&)>& say_line) {
       const auto tc = std::chrono::steady_clock::now();
-      bool seeded = false;
-      const Candidate c = seeded_from_round(unseeded, &seeded);
-      say("round " + std::to_string(round + 1) + ": fitting " + c.effect + " (" + c.form + ")");
+      say_line("round " + std::to_string(round + 1) + ": fitting " + c.effect + " (" + c.form + ")");
       CandidateResult result;
       result.effect = c.effect, result.form = c.form, result.refinement = c.refinement, result.on_model_as_given = screen_as_given;
       FitOptions fo;
       fo.gap = train_gap;
+      fo.gap.threads = threads;
+      GapOptions held_g = held_gap;
+      held_g.threads = threads;
       // a richer form gets the joint refit's budget: it is fitted once, in a round its simpler form
       // leads, and stopped short by the screening's cap it would lose to that form by the cap, not
       // by the data
       fo.max_iterations = c.refinement ? std::max(options.max_iterations, options.refit_iterations) : options.max_iterations;
       if (c.refinement) fo.scan_grid_points = options.refinement_scan_grid_points;
       if (seeded) fo.scan_points = 0;  // started from the fits of its simpler forms
-      fo.progress = options.progress;
+      if (options.progress) fo.progress = say_line;
       CandidateFit fit = FitCandidate(model_path, scenario, c, *train, fo);
       result.evaluations = fit.evaluations;
       if (!fit.error.empty()) {
@@ -644,7 +648,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
         result.train_gap = fit.train_gap_after;
         result.parameters = FittedParameters(c, fit);
         result.rejected = Implausible(c, fit.values, fit.conditional_standard_errors);
-        Evaluated ev = EvaluateScenario(model_path, WithCandidate(scenario, c, fit.values), *held, held_gap);
+        Evaluated ev = EvaluateScenario(model_path, WithCandidate(scenario, c, fit.values), *held, held_g);
         if (!ev.error.empty()) {
           result.status = "failed: on the held-out log: " + ev.error;
         } else {
@@ -653,12 +657,46 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
         }
       }
       result.seconds = Seconds(tc);
+      return result;
+    };
+    // takes a fitted candidate into the round: its line, r.ranking and tried
+    auto take = [&](const Candidate& c, const CandidateResult& result) {
       report(result);
       r.ranking.push_back(result);
       tried.push_back(c);
     };
-    for (const Candidate& c : candidates) {
-      if (!c.refinement && eligible(c)) try_candidate(c);
+    // fits c, seeded from the round's fits so far, with every thread, into r.ranking and tried
+    auto try_candidate = [&](const Candidate& unseeded) {
+      bool seeded = false;
+      const Candidate c = seeded_from_round(unseeded, &seeded);
+      take(c, fit_and_score(c, seeded, options.threads, say));
+    };
+    // the simpler forms side by side, one fit per thread, each with its predictions on that thread
+    // alone; their results (which do not depend on the thread count: prediction.h) and progress
+    // lines are taken in the library's order. A form that estimates its states over the log's
+    // history (heat_transfer) runs an observer through the whole log at every evaluation, on which
+    // the windows of a fit with two threads wait: on rig A at 100 Hz (bench_diagnose --speed) its
+    // fit took 16.7 s of the simpler forms' 37.8 s with the other thread mostly idle; side by side
+    // the simpler forms took 31.6 s. A simpler form is never seeded: only the richer forms have
+    // seeds (EffectParameter::seed_factor), taken from the simpler forms' fits
+    {
+      std::vector<Candidate> simpler;
+      for (const Candidate& c : candidates) {
+        if (!c.refinement && eligible(c)) simpler.push_back(c);
+      }
+      const int side_by_side = std::min(std::max(options.threads, 1), std::max(static_cast<int>(simpler.size()), 1));
+      const int threads_per_fit = std::max(1, options.threads / side_by_side);
+      std::vector<CandidateResult> results(simpler.size());
+      std::vector<std::vector<std::string>> lines(simpler.size());
+      ParallelForInOrder(
+          simpler.size(), side_by_side,
+          [&](size_t i) {
+            results[i] = fit_and_score(simpler[i], false, threads_per_fit, [&lines, i](const std::string& line) { lines[i].push_back(line); });
+          },
+          [&](size_t i) {
+            for (const std::string& line : lines[i]) say(line);
+            take(simpler[i], results[i]);
+          });
     }
     // a richer form of an effect (Candidate::refinement) is fitted only for the round's two best
     // effects by the dIC of their simpler forms: the leader, and the runner-up, the best of the

@@ -52,7 +52,7 @@ struct SignalModel {
   std::vector<double> offset, gain, reference;
   std::vector<double> command_delay;  // s, per cylinder
   // the unmeasured states start each window from the history estimate (Predict) also in a model
-  // without a reservoir: heat_transfer's second form sets it for its gas temperatures
+  // without a reservoir: heat_transfer's form sets it for its gas temperatures
   bool history_estimate = false;
   bool logged_supply = false;
   double supply_offset = 0;  // Pa
@@ -88,10 +88,9 @@ struct Prediction {
 // pressure: SignalModel::logged_supply, whose candidate is offered only for a model without
 // reservoirs of its own), or the signal model asks for it (SignalModel::history_estimate): Predict
 // then estimates the unmeasured states over the log's whole history, at the cost of one more
-// simulation of the log (on a thread of its own when there are two or more). A gas temperature (thermal_model=energy) relaxes over tenths of a second
-// and gains too, but heat_transfer's first form leaves it to the warm-up: it is fitted in every
-// diagnosis round, and the history would cost it two to four times its fit (README); its second
-// form, fitted only in the rounds the first leads or explains, asks for it.
+// simulation of the log (on a thread of its own when there are two or more, on which the windows
+// wait). A gas temperature (thermal_model=energy) relaxes over tenths of a second and gains from it
+// too: heat_transfer's form asks for it (a 20 ms warm-up hardly shows a wall near adiabatic).
 bool EstimatesOverTheHistory(const mjModel* m, const SignalModel& signals);
 
 // Predicts `meas` with m (attached) on up to `threads` threads (windows are independent; each

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cstddef>
+#include <mutex>
 #include <thread>
 #include <vector>
 
@@ -24,6 +25,23 @@ void ParallelFor(std::size_t n, int threads, F f) {
   for (std::size_t w = 1; w < workers; ++w) pool.emplace_back(work);
   work();
   for (std::thread& t : pool) t.join();
+}
+
+// As ParallelFor, and then(i) for i = 0..n-1 in index order, one call at a time, each as soon as
+// f(0) ... f(i) have returned (on the worker that finished the last of them): the results are taken
+// in the same order whatever `threads`, while the later ones are still running. f(i) must not read
+// what then() writes.
+template <class F, class Then>
+void ParallelForInOrder(std::size_t n, int threads, F f, Then then) {
+  std::mutex mutex;
+  std::vector<char> finished(n, 0);
+  std::size_t taken = 0;
+  ParallelFor(n, threads, [&](std::size_t i) {
+    f(i);
+    std::lock_guard<std::mutex> lock(mutex);
+    finished[i] = 1;
+    while (taken < n && finished[taken]) then(taken++);
+  });
 }
 
 }  // namespace pneumatic
