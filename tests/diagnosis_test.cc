@@ -1147,8 +1147,8 @@ TEST(DiagnosisEndToEnd, FindsABiasedPressureSensorAndNothingOnACleanLog) {
   EXPECT_EQ(clean.heldout_gap_after, unsearched.heldout_gap_after);
   // every candidate tried is ranked (a failed fit is listed as failed, never dropped): one each of
   // leakage, payload and friction, sensor_bias once per signal, and the richer forms of the round's
-  // two best effects by their simpler forms' dIC, the leader and the best other effect with richer
-  // forms (leakage, friction; not payload or sensor_bias) whose simpler form explains the gap:
+  // two best effects with richer forms (leakage, friction; not payload or sensor_bias) by their
+  // simpler forms' dIC, the first and the best other one whose simpler form explains the gap:
   // leakage's laminar form and both laws side by side (two), friction's viscous and LuGre forms (two);
   // none of any other effect
   for (const Diagnosis* diagnosis : {&d, &clean}) {
@@ -1164,17 +1164,17 @@ TEST(DiagnosisEndToEnd, FindsABiasedPressureSensorAndNothingOnACleanLog) {
       if (c.explains) explaining.insert(c.effect);
     }
     ASSERT_FALSE(best.empty());
-    std::string leader, runner_up;
+    std::string first, runner_up;
+    auto refinable = [](const std::string& effect) { return effect == "leakage" || effect == "friction"; };
     for (const auto& [effect, dic] : best) {
-      if (leader.empty() || dic < best[leader]) leader = effect;
+      if (refinable(effect) && (first.empty() || dic < best[first])) first = effect;
     }
     for (const auto& [effect, dic] : best) {
-      const bool refinable = effect == "leakage" || effect == "friction";
-      if (effect != leader && refinable && explaining.count(effect) && (runner_up.empty() || dic < best[runner_up])) runner_up = effect;
+      if (effect != first && refinable(effect) && explaining.count(effect) && (runner_up.empty() || dic < best[runner_up])) runner_up = effect;
     }
     EXPECT_EQ(simple, (std::map<std::string, int>{{"friction", 1}, {"leakage", 1}, {"payload", 1}, {"sensor_bias", 3}}));
     std::map<std::string, int> expected_richer;
-    for (const std::string& refined : {leader, runner_up}) {
+    for (const std::string& refined : {first, runner_up}) {
       if (refined == "leakage") expected_richer["leakage"] = 2;
       if (refined == "friction") expected_richer["friction"] = 2;
     }
@@ -1190,12 +1190,12 @@ TEST(DiagnosisEndToEnd, FindsABiasedPressureSensorAndNothingOnACleanLog) {
       }
       EXPECT_EQ(diagnosis->rounds[0].richer_forms_skipped.empty(), expected_richer.empty());
     } else {
-      EXPECT_EQ(richer, expected_richer) << "leader " << leader << ", runner-up " << runner_up;
+      EXPECT_EQ(richer, expected_richer) << "first " << first << ", runner-up " << runner_up;
       EXPECT_EQ(diagnosis->rounds[0].richer_forms_skipped, "");
     }
   }
   // the bias, the log's only fault, fitted on its own leaves nothing to explain; on the clean log no
-  // simpler form explains the gap: the richer forms are the leader's alone
+  // simpler form explains the gap: the richer forms are the first effect's alone
   EXPECT_TRUE(std::any_of(d.rounds[0].ranking.begin(), d.rounds[0].ranking.end(), [](const CandidateResult& c) {
     return c.effect == "sensor_bias" && !c.with_found_effects && c.leaves_nothing_to_explain;
   }));
