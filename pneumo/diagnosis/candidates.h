@@ -3,8 +3,8 @@
 // fits. The forms are deliberately simple (a Coulomb friction for whatever the seals do, one wall
 // heat conductance, an orifice leak): a real effect will not follow any one form, and a simple
 // form that captures its signature generalises to held-out data better than a rich one. Where one
-// simple form leaves much unexplained, a second form of the effect is tried in the rounds the first
-// leads or where it is the runner-up that explains the gap (Candidate::refinement: a dead time, laminar
+// simple form leaves much unexplained, a second form of the effect is tried in the rounds where the
+// effect is the best with richer forms or the runner-up that explains the gap (Candidate::refinement: a dead time, laminar
 // leaks, leaks both laminar and orifice, a supply tank, ...; diagnose.cc). Each effect's forms are
 // declared in a file of diagnosis/effects/ and registered in effects/registry.cc
 // (docs/effect_forms.md).
@@ -110,8 +110,9 @@ struct Candidate {
   std::string form;    // what is added, in words
   std::vector<ModelEdit> edits;
   std::vector<EffectParameter> parameters;
-  // a richer form of an effect that has a simpler one in the library: fitted only in a round that
-  // the effect's simpler form leads or explains the gap by itself (diagnose.h), as its fit is costly
+  // a richer form of an effect that has a simpler one in the library: fitted only in a round where
+  // the effect's simpler forms are the best or second best of the effects with richer forms
+  // (the second must explain the gap by itself; diagnose.h), as its fit is costly
   // (a state to simulate)
   bool refinement = false;
 };

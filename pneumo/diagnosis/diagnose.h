@@ -23,8 +23,9 @@
 // "explained" 22 % of a 0.0005 gap that the model's 0.1 ms Euler step leaves. No such candidate: `none`. A richer form of an effect
 // (Candidate::refinement: supply_drop's tank, valve_delay's dead time (its delay line estimated over the history) and exact latency,
 // line_dynamics' transport delay, leakage's laminar leaks and both laws side by side) is fitted
-// only in a round that the effect's simpler form leads by dIC or is the runner-up (the best other
-// effect with a richer form whose simpler form explains the gap by itself), with the joint refit's
+// only in a round where the effect is the first by the dIC of its simpler forms among the effects
+// with richer forms (the round's leader unless the leader has one form), or the runner-up (the best
+// other such effect whose simpler form explains the gap by itself), with the joint refit's
 // iterations (refit_iterations) and a finer scan
 // (refinement_scan_grid_points), or from the round's fits of its simpler forms where its parameters
 // say so (EffectParameter::seed_factor), and then ranked with the rest. In a round with effects
@@ -144,7 +145,7 @@ struct CandidateResult {
   // (implausible), or a parameter the data do not determine (standard error larger than its
   // deviation from the model without the effect); "" if neither (diagnose.cc, Implausible)
   std::string rejected;
-  bool refinement = false;  // a richer form (Candidate::refinement), fitted because its effect led or was the runner-up
+  bool refinement = false;  // a richer form (Candidate::refinement), fitted because its effect was one of the two refined
   // fitted together with the found effects' parameters (the joint screening, diagnose.cc)
   bool with_found_effects = false;
   // screened on the model as given, before the calibration, in the first round of a calibrated

@@ -57,7 +57,7 @@ void LeakageForms(FormLibrary* library) {
   // leakage, second form, a refinement (candidates.h): laminar leaks along the same paths, the mass
   // flow G dp proportional to the pressure difference (the plugin's *_leak_conductance, the
   // project's own form: the viscous flow of a seal's clearance gap, where the orifice form is a
-  // hole's). The two forms are the ends of a real leak's range; where the first leads a round or is its runner-up, the
+  // hole's). The two forms are the ends of a real leak's range; where leakage is one of the round's two refined effects (diagnose.cc), the
   // held-out gap tells which end is nearer. Its range is the orifice form's, converted
   // (LaminarConductancePerArea)
   // The fit starts from the orifice form's fit, each area converted at the same rate as the range: the

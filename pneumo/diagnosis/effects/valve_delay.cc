@@ -80,7 +80,7 @@ void DeadTimeBeforeLag(FormLibrary* library) {
 // valve opens at a command of 1/2 or more (plugin/src/valves.cc), so the delayed command's mean over
 // a step switches it at the model step nearest the delayed switch (rig A: to 50 us), where the
 // armature delays of the first form lose pulses shorter than their opening delay. A refinement
-// (candidates.h) as the Pade form is: fitted in the rounds valve_delay leads or explains. Up to 50 ms, scanned
+// (candidates.h) as the Pade form is: fitted in the rounds where valve_delay is one of the two refined effects (diagnose.cc). Up to 50 ms, scanned
 // in half rows: the prediction error has a local minimum wherever the delayed commands line up with
 // the log's own oscillations (on a 500 Hz rig C log of an 8 ms latency, at 3.5, 5.5, 8 and 11 ms;
 // the true one's basin about a row wide)
