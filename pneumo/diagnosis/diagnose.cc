@@ -743,9 +743,10 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
     if (!refining.empty()) say("round " + std::to_string(round + 1) + ": richer forms of " + refining);
     // no richer form after a form that leaves nothing to explain (the rule that ends the search,
     // within the round): it could at most shrink a residual already within the floor's margin and
-    // unstructured, no more than a diagnosis can show from this log. The runner-up's richer forms
-    // are not fitted once a form of another effect leaves that; the leader's and the runner-up's
-    // own are, until one of their own richer forms does, since the verdict takes its effect's best
+    // unstructured, no more than a diagnosis can show from this log. The richer forms of a refined
+    // effect other than the round's leader are not fitted once a form of another effect leaves
+    // that; the leader's own are, and any effect's after its own simpler forms, until one of its
+    // own richer forms does, since the verdict takes its effect's best
     // form and a form within the margin can still be a cruder stand-in for the richer one (the
     // orifice leak for a laminar one: bench_diagnose --speed, rig A at 100 Hz, 73.3 % of the gap as
     // given against 81.0 %; on bench_diagnose --rig C's laminar leak, the runner-up's deadband with
