@@ -58,6 +58,14 @@ bool SameBits(const std::vector<double>& a, const std::vector<double>& b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
 }
 
+// a model loaded from its file as LoadEditedModel loads one: attached, its collision detection
+// skipped where nothing can collide
+ModelPtr LoadAsTheDiagnosisDoes(const std::string& path, std::string* error) {
+  ModelPtr m = LoadAttachedModel(path, error);
+  if (m) SkipCollisionWhereNothingCollides(m.get());
+  return m;
+}
+
 std::string ReadFile(const std::string& path) {
   std::ifstream file(path, std::ios::binary);
   std::stringstream text;
@@ -90,7 +98,7 @@ std::string WithEnergyEditByHand(std::string xml) {
 TEST(CandidateEditsTest, IncludesResolveAsMuJoCoResolvesThem) {
   std::string error;
   // without edits, the document with its includes resolved is the model MuJoCo compiles from the file
-  ModelPtr own = LoadAttachedModel(kData + "/rig_included.xml", &error);
+  ModelPtr own = LoadAsTheDiagnosisDoes(kData + "/rig_included.xml", &error);
   ASSERT_TRUE(own) << error;
   ModelPtr resolved = LoadEditedModel(kData + "/rig_included.xml", {}, &error);
   ASSERT_TRUE(resolved) << error;
@@ -103,7 +111,7 @@ TEST(CandidateEditsTest, IncludesResolveAsMuJoCoResolvesThem) {
 
 TEST(CandidateEditsTest, EnergyEditThroughQuotesAndIncludes) {
   std::string error;
-  ModelPtr by_hand = LoadAttachedModel(kData + "/rig_energy_by_hand.xml", &error);
+  ModelPtr by_hand = LoadAsTheDiagnosisDoes(kData + "/rig_energy_by_hand.xml", &error);
   ASSERT_TRUE(by_hand) << error;
   for (const char* file : {"rig_quoted.xml", "rig_included.xml"}) {
     SCOPED_TRACE(file);
@@ -138,13 +146,53 @@ TEST(CandidateEditsTest, ShippedRigsStepAsWithTheEditWrittenByHand) {
     const std::string by_hand_path = ::testing::TempDir() + "candidate_edits_by_hand_" + rig;
     std::ofstream(by_hand_path, std::ios::binary) << by_hand_text;
     std::string error;
-    ModelPtr by_hand = LoadAttachedModel(by_hand_path, &error);
+    ModelPtr by_hand = LoadAsTheDiagnosisDoes(by_hand_path, &error);
     ASSERT_TRUE(by_hand) << error;
     ModelPtr edited = LoadEditedModel(kModels + "/" + rig, {EnergyEdit()}, &error);
     ASSERT_TRUE(edited) << error;
     EXPECT_EQ(Bytes(edited.get()), Bytes(by_hand.get()));
     EXPECT_TRUE(SameBits(Trajectory(edited.get()), Trajectory(by_hand.get())));
   }
+}
+
+// Collision detection is skipped only where no geom pair can touch, and there it changes nothing:
+// every shipped rig (its geoms contype="0" conaffinity="0") gets mjDSBL_CONTACT and steps the same
+// to the bit as without it; a geom that may meet another's conaffinity, or an explicit <pair>,
+// leaves the model as it is.
+TEST(CandidateEditsTest, CollisionSkippedOnlyWhereNothingCanCollide) {
+  for (const char* rig : {"rig_onoff.xml", "rig_proportional.xml", "rig_per_chamber.xml", "rig_proportional_full.xml"}) {
+    SCOPED_TRACE(rig);
+    std::string error;
+    ModelPtr as_loaded = LoadAttachedModel(kModels + "/" + rig, &error);
+    ModelPtr skipped = LoadEditedModel(kModels + "/" + rig, {}, &error);
+    ASSERT_TRUE(as_loaded && skipped) << error;
+    EXPECT_EQ(as_loaded->opt.disableflags & mjDSBL_CONTACT, 0);
+    EXPECT_NE(skipped->opt.disableflags & mjDSBL_CONTACT, 0);
+    EXPECT_TRUE(SameBits(Trajectory(as_loaded.get()), Trajectory(skipped.get())));
+  }
+  auto loaded = [](const std::string& worldbody, const std::string& extra = "") {
+    std::string error;
+    ModelPtr m = LoadModelFromText("<mujoco>" + extra + "<worldbody>" + worldbody + "</worldbody></mujoco>",
+                                   ::testing::TempDir() + "collision_skip.xml", &error);
+    EXPECT_TRUE(m) << error;
+    if (m) SkipCollisionWhereNothingCollides(m.get());
+    return m;
+  };
+  const std::string box = "<body><joint type='free'/><geom type='box' size='.1 .1 .1' contype='2' conaffinity='0'/></body>";
+  // the box's contype 2 meets a floor's conaffinity 2: a contact can arise
+  ModelPtr touching = loaded("<geom type='plane' size='1 1 1' contype='0' conaffinity='2'/>" + box);
+  ASSERT_TRUE(touching);
+  EXPECT_EQ(touching->opt.disableflags & mjDSBL_CONTACT, 0);
+  // a floor of conaffinity 1 never meets contype 2, and nothing else can touch
+  ModelPtr apart = loaded("<geom name='floor' type='plane' size='1 1 1' contype='0' conaffinity='1'/>" + box);
+  ASSERT_TRUE(apart);
+  EXPECT_NE(apart->opt.disableflags & mjDSBL_CONTACT, 0);
+  // the same with an explicit pair between them
+  ModelPtr paired = loaded("<geom name='floor' type='plane' size='1 1 1' contype='0' conaffinity='1'/>" +
+                           std::string("<body><joint type='free'/><geom name='box' type='box' size='.1 .1 .1' contype='2' conaffinity='0'/></body>"),
+                           "<contact><pair geom1='floor' geom2='box'/></contact>");
+  ASSERT_TRUE(paired);
+  EXPECT_EQ(paired->opt.disableflags & mjDSBL_CONTACT, 0);
 }
 
 // a command given a state, a force actuator and a supply reservoir, in an included file

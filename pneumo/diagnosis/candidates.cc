@@ -195,6 +195,13 @@ const std::vector<std::string>& EffectNames() {
   return names;
 }
 
+void SkipCollisionWhereNothingCollides(mjModel* m) {
+  if (m->npair > 0) return;
+  int contype = 0, conaffinity = 0;
+  for (int g = 0; g < m->ngeom; ++g) contype |= m->geom_contype[g], conaffinity |= m->geom_conaffinity[g];
+  if ((contype & conaffinity) == 0) m->opt.disableflags |= mjDSBL_CONTACT;
+}
+
 ModelPtr LoadEditedModel(const std::string& path, const std::vector<ModelEdit>& edits, std::string* error) {
   auto fail = [&](const std::string& why) {
     *error = path + ": " + why;
@@ -228,6 +235,7 @@ ModelPtr LoadEditedModel(const std::string& path, const std::vector<ModelEdit>& 
     *error = path + " with the effect's edits: " + attach_error;
     return ModelPtr(nullptr, mj_deleteModel);
   }
+  SkipCollisionWhereNothingCollides(m.get());
   return m;
 }
 
