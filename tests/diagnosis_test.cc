@@ -379,6 +379,28 @@ TEST(DiagnosisPrediction, EstimatesASupplyTankOverTheLogsHistory) {
   }
 }
 
+// Only a richer form is seeded (EffectParameter::seed_factor) from the round's fits of its effect's
+// other forms: the simpler forms are fitted side by side (diagnose.cc), none of them knowing the
+// others' results, so a seed on one would read a ranking still being filled. On each rig's library.
+TEST(DiagnosisCandidates, OnlyRicherFormsAreSeeded) {
+  for (const std::string& rig : {kRigA, kRigB, kRigC}) {
+    SCOPED_TRACE(rig);
+    std::string error;
+    ModelPtr m = LoadEditedModel(rig, {}, &error);
+    ASSERT_TRUE(m) << error;
+    std::optional<Measurements> meas = PrepareMeasurements(m.get(), RigLog(rig, 1, 1.0, {}, 500, 0), 100, &error);
+    ASSERT_TRUE(meas) << error;
+    int seeded_richer = 0;
+    for (const Candidate& c : CandidateLibrary(m.get(), *meas)) {
+      for (const EffectParameter& p : c.parameters) {
+        if (!c.refinement) EXPECT_FALSE(p.seed_factor > 0) << c.effect << " (" << c.form << "): " << p.name;
+        if (c.refinement && p.seed_factor > 0) ++seeded_richer;
+      }
+    }
+    EXPECT_GT(seeded_richer, 0) << "the leaks' richer forms are seeded";
+  }
+}
+
 // supply_drop's logged form (the logged p_S at the valves), or nullopt where the library does not
 // offer it
 std::optional<Candidate> LoggedSupplyForm(const mjModel* m, const Measurements& meas) {

@@ -4,7 +4,9 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -15,6 +17,7 @@
 #include "diagnosis/diagnose.h"
 #include "diagnosis/noise_floor.h"
 #include "diagnosis/plausibility.h"
+#include "diagnosis/refinement.h"
 #include "diagnosis/residual_tests.h"
 #include "diagnosis/unexplained.h"
 #include "simulation/closed_loop.h"
@@ -364,6 +367,69 @@ TEST(Calibration, FitsTheModelsNominalParametersWithinPlausibleRanges) {
   EXPECT_EQ(edited->dof_damping[0], 25);
 }
 
+
+// --- which richer forms a round fits --------------------------------------------------------------
+
+// a simpler or richer form's result as a round ranks it
+CandidateResult Ranked(const std::string& effect, double delta_ic, bool explains, bool refinement = false,
+                       bool leaves_nothing_to_explain = false) {
+  CandidateResult r;
+  r.effect = effect, r.form = effect + (refinement ? " (richer)" : " (simpler)");
+  r.delta_ic = delta_ic, r.explains = explains, r.refinement = refinement;
+  r.leaves_nothing_to_explain = leaves_nothing_to_explain;
+  return r;
+}
+
+// The leader is the best simpler form by dIC whatever its effect; the first refined effect the best
+// among those with a richer form to fit (heat transfer, one form, leads and is passed over, as on the
+// independent suite's C09); the runner-up the next of those whose simpler form explains the gap
+// (leakage, better by dIC but not explaining, is passed over). An effect counts with its best
+// simpler form; a failed fit (NaN dIC) counts for nothing.
+TEST(RefinedEffects, FirstIsTheBestWithRicherFormsAndTheRunnerUpMustExplain) {
+  const double failed = std::numeric_limits<double>::quiet_NaN();
+  const std::vector<CandidateResult> ranking = {
+      Ranked("heat_transfer", -50, true), Ranked("line_dynamics", -20, true), Ranked("line_dynamics", -49, true),
+      Ranked("leakage", -45, false),      Ranked("valve_delay", -30, true),   Ranked("friction", failed, false)};
+  const std::set<std::string> refinable = {"line_dynamics", "leakage", "valve_delay", "friction"};
+  const RefinedEffects e = ChooseRefinedEffects(ranking, refinable);
+  EXPECT_EQ(e.leader, "heat_transfer");
+  EXPECT_EQ(e.first, "line_dynamics");
+  EXPECT_EQ(e.runner_up, "valve_delay");
+  // with nothing refinable, no effect is refined, and the leader stays
+  const RefinedEffects none = ChooseRefinedEffects(ranking, {});
+  EXPECT_EQ(none.leader, "heat_transfer");
+  EXPECT_EQ(none.first, "");
+  EXPECT_EQ(none.runner_up, "");
+  // equal dICs go to the effect first by name
+  const RefinedEffects tie = ChooseRefinedEffects({Ranked("valve_delay", -10, true), Ranked("leakage", -10, true)}, {"leakage", "valve_delay"});
+  EXPECT_EQ(tie.leader, "leakage");
+  EXPECT_EQ(tie.first, "leakage");
+  EXPECT_EQ(tie.runner_up, "valve_delay");
+}
+
+// A form that leaves nothing to explain settles the richer forms of every other refined effect, but
+// not the round leader's: its richer forms are still fitted after another effect's form, and after
+// its own simpler forms, until one of its own richer forms leaves nothing to explain.
+TEST(RefinedEffects, TheLeadersRicherFormsAreSettledOnlyByItsOwn) {
+  std::vector<CandidateResult> ranking = {Ranked("leakage", -40, true), Ranked("supply_drop", -35, true, false, true)};
+  // supply_drop's lower supply leaves nothing: the leader's (leakage's) richer forms go on, and so do
+  // supply_drop's own (its simpler form does not settle them); any other effect's are settled by it
+  EXPECT_EQ(SettledBefore("leakage", ranking, "leakage"), nullptr);
+  EXPECT_EQ(SettledBefore("supply_drop", ranking, "leakage"), nullptr);
+  const CandidateResult* settled = SettledBefore("valve_delay", ranking, "leakage");
+  ASSERT_NE(settled, nullptr);
+  EXPECT_EQ(settled->effect, "supply_drop");
+  // the leader's own simpler form leaving nothing does not settle its richer forms either
+  ranking[0].leaves_nothing_to_explain = true;
+  EXPECT_EQ(SettledBefore("leakage", ranking, "leakage"), nullptr);
+  // one of its richer forms does
+  ranking.push_back(Ranked("leakage", -60, true, true, true));
+  settled = SettledBefore("leakage", ranking, "leakage");
+  ASSERT_NE(settled, nullptr);
+  EXPECT_TRUE(settled->refinement);
+  // with supply_drop the leader, leakage's form leaving nothing settles none of supply_drop's
+  EXPECT_EQ(SettledBefore("supply_drop", {Ranked("leakage", -40, true, false, true)}, "supply_drop"), nullptr);
+}
 
 // --- end to end on rig C ---------------------------------------------------------------------------
 

@@ -9,6 +9,7 @@
 #include <set>
 
 #include "diagnosis/plausibility.h"
+#include "diagnosis/refinement.h"
 #include "simulation/parallel_for.h"
 
 namespace pneumatic::diagnosis {
@@ -698,73 +699,21 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
             take(simpler[i], results[i]);
           });
     }
-    // a richer form of an effect (Candidate::refinement) is fitted only for two effects, the best two
-    // by the dIC of their simpler forms among the effects that have a richer form to fit: the first,
-    // and the runner-up, whose simpler forms must also explain the gap by themselves. The first is
-    // the round's leader unless the leader has one form (heat_transfer, payload, sensor_bias) and
-    // nothing to refine: in either place such an effect would leave the slot unused while one that
-    // can be refined waits behind it (on the independent suite's C09, a command delay of 7.3 ms
-    // logged at 100 Hz, heat transfer at the upper bound of its conductance led line_dynamics by a
-    // dIC of 0.9, valve_delay came third, and its dead time was never fitted: line_dynamics was
-    // named). It refines a verdict or its closest contender, and costs no fit otherwise. The
-    // runner-up is refined because a simple form can be a poor stand-in for its own effect while
-    // another effect leads: on rig A driven open loop, commands 8 ms late, the armature delays lose
-    // every pulse shorter than their opening delay and explained 14.7 % of the gap, a tube 28.2 %;
-    // the tube was accepted, and the exact latency, fitted only after it, found half the dead time.
-    // Two, not every effect that explains, bounds the cost: a richer form may simulate the whole log
-    // (a supply tank, a valve's delay line over the history), and on a 20 s rig C log of a leak
-    // (bench_diagnose --speed) the tank of the fourth effect cost 37 s of a 124 s diagnosis. An
-    // effect ranked lower is refined in a later round if it is among the two best there
-    std::map<std::string, double> best_simple;  // each effect's best dIC among its simpler forms
-    std::set<std::string> explaining;           // the effects with a simpler form that explains
-    std::set<std::string> refinable;            // the effects with a richer form still to fit
+    // the two effects whose richer forms the round fits (refinement.h)
+    std::set<std::string> refinable;  // the effects with a richer form still to fit
     for (const Candidate& c : candidates) {
       if (c.refinement && eligible(c)) refinable.insert(c.effect);
     }
-    for (const CandidateResult& result : r.ranking) {
-      if (std::isnan(result.delta_ic)) continue;
-      auto [best, inserted] = best_simple.try_emplace(result.effect, result.delta_ic);
-      if (!inserted) best->second = std::min(best->second, result.delta_ic);
-      if (result.explains) explaining.insert(result.effect);
-    }
-    std::string leader, first, runner_up;  // the round's best effect; the two refined. Ties go to the first by name
-    for (const auto& [effect, dic] : best_simple) {
-      if (leader.empty() || dic < best_simple[leader]) leader = effect;
-      if (refinable.count(effect) && (first.empty() || dic < best_simple[first])) first = effect;
-    }
-    for (const auto& [effect, dic] : best_simple) {
-      if (effect != first && explaining.count(effect) && refinable.count(effect) && (runner_up.empty() || dic < best_simple[runner_up]))
-        runner_up = effect;
-    }
+    const auto [leader, first, runner_up] = ChooseRefinedEffects(r.ranking, refinable);
     const std::set<std::string> refined = {first, runner_up};  // "" names no effect
     std::string refining;
     if (!first.empty()) refining = first + (first == leader ? " (the round's leader)" : " (the best of the effects with richer forms)");
     if (!runner_up.empty()) refining += (refining.empty() ? "" : " and ") + runner_up + " (the runner-up)";
     if (!refining.empty()) say("round " + std::to_string(round + 1) + ": richer forms of " + refining);
-    // no richer form after a form that leaves nothing to explain (the rule that ends the search,
-    // within the round): it could at most shrink a residual already within the floor's margin and
-    // unstructured, no more than a diagnosis can show from this log. The richer forms of a refined
-    // effect other than the round's leader are not fitted once a form of another effect leaves
-    // that; the leader's own are, and any effect's after its own simpler forms, until one of its
-    // own richer forms does, since the verdict takes its effect's best
-    // form and a form within the margin can still be a cruder stand-in for the richer one (the
-    // orifice leak for a laminar one: bench_diagnose --speed, rig A at 100 Hz, 73.3 % of the gap as
-    // given against 81.0 %; on bench_diagnose --rig C's laminar leak, the runner-up's deadband with
-    // a slope left the margin first, the leak's laminar form was skipped, and the deadband fitted
-    // with the calibration beat the orifice leak by a dIC of 39: valve_deadband, wrong). On rig A's
-    // 20 s leak at 1 kHz (bench_diagnose --speed, 084ed7b) the orifice and the laminar leak left
-    // the held-out gap at the floor, unstructured; the leak's laws side by side (20.1 s) and the
-    // runner-up's supply tank (34.8 s) came after them, 55 of the diagnosis' 108.5 s
-    auto settled_for = [&](const Candidate& c) -> const CandidateResult* {
-      for (const CandidateResult& result : r.ranking) {
-        if (!result.leaves_nothing_to_explain) continue;
-        if (result.effect == c.effect ? result.refinement : c.effect != leader) return &result;
-      }
-      return nullptr;
-    };
+    // none after a form that leaves nothing to explain (refinement.h, SettledBefore)
     for (const Candidate& c : candidates) {
       if (!c.refinement || !refined.count(c.effect) || !eligible(c)) continue;
-      if (const CandidateResult* settled = settled_for(c)) {
+      if (const CandidateResult* settled = SettledBefore(c.effect, r.ranking, leader)) {
         const std::string line = c.effect + " (" + c.form + "), after " + settled->effect + " (" + settled->form +
                                  Fixed(") left %.4f", settled->heldout_gap);
         r.richer_forms_skipped += (r.richer_forms_skipped.empty() ? "" : "; ") + line;
@@ -824,7 +773,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
         for (const ParameterResult& p : r.ranking[i].parameters) values.push_back(p.value);
         return !ValueAtAFarBound(tried[i], values).empty();
       };
-      auto best_form_per_effect = [&](const std::function<bool(size_t)>& take) {
+      auto best_form_per_effect = [&](const std::function<bool(size_t)>& counts) {
         auto better = [&](size_t a, size_t b) {
           const bool plausible_a = !at_far_bound(a), plausible_b = !at_far_bound(b);
           if (plausible_a != plausible_b) return plausible_a;
@@ -838,7 +787,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
         };
         std::vector<size_t> forms;
         for (size_t i = 0; i < r.ranking.size(); ++i) {
-          if (!take(i)) continue;
+          if (!counts(i)) continue;
           auto same = std::find_if(forms.begin(), forms.end(), [&](size_t j) { return r.ranking[j].effect == r.ranking[i].effect; });
           if (same == forms.end()) {
             forms.push_back(i);
@@ -877,20 +826,20 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
         fo.progress = options.progress;
         CandidateFit fit = FitCandidate(model_path, Scenario{}, joint, *train, fo);
         result.evaluations = fit.evaluations;
-        const size_t first = found_start.parameters.size();
+        const size_t own_first = found_start.parameters.size();  // c's own parameters follow the found effects'
         if (!fit.error.empty()) {
           result.status = "failed: " + fit.error;
         } else {
           result.status = "fitted";
           result.train_gap = fit.train_gap_after;
-          result.parameters = FittedParameters(c, fit, first);
-          result.rejected = Implausible(c, std::vector<double>(fit.values.begin() + first, fit.values.end()),
-                                        std::vector<double>(fit.conditional_standard_errors.begin() + first, fit.conditional_standard_errors.end()));
+          result.parameters = FittedParameters(c, fit, own_first);
+          result.rejected = Implausible(c, std::vector<double>(fit.values.begin() + own_first, fit.values.end()),
+                                        std::vector<double>(fit.conditional_standard_errors.begin() + own_first, fit.conditional_standard_errors.end()));
           Evaluated ev = EvaluateScenario(model_path, WithCandidate(Scenario{}, joint, fit.values), *held, held_gap);
           // the joint fit's values without the candidate: the part of the gap the candidate itself
           // removes there (the found effects may have moved back from standing in for it)
           const Evaluated without = EvaluateScenario(
-              model_path, WithCandidate(Scenario{}, found_start, std::vector<double>(fit.values.begin(), fit.values.begin() + first)), *held, held_gap);
+              model_path, WithCandidate(Scenario{}, found_start, std::vector<double>(fit.values.begin(), fit.values.begin() + own_first)), *held, held_gap);
           if (!ev.error.empty() || !without.error.empty()) {
             result.status = "failed: on the held-out log: " + (ev.error.empty() ? without.error : ev.error);
           } else {
@@ -901,7 +850,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
             // the better of the two
             if (result.explains) {
               Candidate from_joint = found_start;
-              for (size_t j = 0; j < first; ++j) from_joint.parameters[j].initial = fit.values[j];
+              for (size_t j = 0; j < own_first; ++j) from_joint.parameters[j].initial = fit.values[j];
               const CandidateFit alone = FitCandidate(model_path, Scenario{}, from_joint, *train, fo);
               const Evaluated alone_held =
                   alone.error.empty() ? EvaluateScenario(model_path, WithCandidate(Scenario{}, from_joint, alone.values), *held, held_gap)
@@ -916,7 +865,7 @@ Diagnosis Diagnose(const std::string& model_path, const log::Log& train_log, con
         report(result);
         r.ranking.push_back(result);
         tried.push_back(c);
-        found_values.emplace_back(fit.values.begin(), fit.values.begin() + std::min(first, fit.values.size()));
+        found_values.emplace_back(fit.values.begin(), fit.values.begin() + std::min(own_first, fit.values.size()));
       };
       for (size_t i : best_form) fit_jointly(i, found_joint, options.refit_iterations);
       // the wider joint screening: when none of those explains the calibrated model's gap but its
