@@ -326,6 +326,34 @@ TEST(Plausibility, RejectsAValueAtItsFarBoundOrOneTheDataDoNotDetermine) {
   EXPECT_EQ(ValueAtAFarBound(energy, {1.0}), "");
 }
 
+// A nuisance parameter (EffectParameter::nuisance) is not the effect's size: the logged supply's p_S
+// sensor offset, where the effect is the logged supply itself. At 0, or undetermined (bench_diagnose's
+// rig A supply tank: 7 +- 14 Pa), it leaves the form the effect; at a bound of its range it refuses
+// it as any parameter would. Beside a parameter that is the effect's size, that one decides.
+TEST(Plausibility, ANuisanceParameterNeitherShowsNorRefusesItsEffect) {
+  Candidate logged;
+  logged.effect = "supply_drop";
+  EffectParameter offset;
+  offset.name = "p_S:offset", offset.unit = "Pa", offset.lower = -26000, offset.upper = 26000, offset.scale = 5200;
+  offset.nuisance = true;
+  logged.parameters = {offset};
+  EXPECT_EQ(Implausible(logged, {0.0}, {14.0}), "");
+  EXPECT_EQ(Implausible(logged, {6.93}, {14.0}), "");
+  EXPECT_EQ(Implausible(logged, {-26000.0}, {14.0}).find("p_S:offset at its lower bound"), 0u);
+  // without the flag, the same offset is refused: at 0 it is the model without the effect, at 6.93
+  // +- 14 Pa undetermined
+  offset.nuisance = false;
+  logged.parameters = {offset};
+  EXPECT_EQ(Implausible(logged, {0.0}, {14.0}).find("every parameter"), 0u);
+  EXPECT_NE(Implausible(logged, {6.93}, {14.0}).find("not determined"), std::string::npos);
+  // a nuisance beside a magnitude: the magnitude at the model without the effect refuses the form
+  offset.nuisance = true;
+  Candidate both = TwoParameters();
+  both.parameters.push_back(offset);
+  EXPECT_EQ(Implausible(both, {1e-12, 1.0, 6.93}, {1e-6, 0.0, 14.0}).find("every parameter"), 0u);
+  EXPECT_EQ(Implausible(both, {1e-8, 1.03, 6.93}, {1e-9, 0.005, 14.0}), "");
+}
+
 // --- parameters before effects -------------------------------------------------------------------
 
 // The calibration of rig C: the flow coefficient, both dead volumes, the polytropic index and the

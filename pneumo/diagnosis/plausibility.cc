@@ -53,10 +53,12 @@ std::string ValueAtAFarBound(const Candidate& c, const std::vector<double>& valu
 
 std::string Implausible(const Candidate& c, const std::vector<double>& values, const std::vector<double>& standard_errors) {
   if (std::string far = ValueAtAFarBound(c, values); !far.empty()) return far;
-  bool any_present = false;
+  bool any_present = false, any_magnitude = false;
   std::string undetermined;  // the first parameter off the model without the effect by less than its standard error
   for (size_t i = 0; i < c.parameters.size() && i < values.size() && i < standard_errors.size(); ++i) {
     const EffectParameter& p = c.parameters[i];
+    if (p.nuisance) continue;
+    any_magnitude = true;
     const double value = values[i], absent = AbsentValue(p);
     if (IsAbsent(p, value)) continue;
     if (!(standard_errors[i] <= std::fabs(value - absent))) {
@@ -67,7 +69,7 @@ std::string Implausible(const Candidate& c, const std::vector<double>& values, c
     }
     any_present = true;
   }
-  if (any_present) return "";
+  if (any_present || !any_magnitude) return "";
   return undetermined.empty() ? "every parameter at the value of the model without the effect" : undetermined;
 }
 

@@ -35,7 +35,9 @@ std::string ValueAtAFarBound(const Candidate& c, const std::vector<double>& valu
 // found with a leak to the atmosphere of 2e-12 +- 4e-12 kg/(s Pa) is a leak across the piston (on
 // rig A, refusing the whole effect for that path refused the laminar leak of bench_diagnose). (On
 // a rig C log of LuGre friction, before this rule, a valve dead time of 0.1 ms +- 12 ms at its
-// lower bound, its only parameter, was accepted after the friction.)
+// lower bound, its only parameter, was accepted after the friction.) A nuisance parameter
+// (EffectParameter::nuisance) is held to the first rule only, and a form whose parameters are all
+// nuisances is the effect by itself.
 std::string Implausible(const Candidate& c, const std::vector<double>& values, const std::vector<double>& standard_errors);
 
 }  // namespace pneumatic::diagnosis

@@ -118,6 +118,7 @@ void LoggedSupply(FormLibrary* library) {
   p.name = "p_S:offset";
   p.unit = "Pa";
   p.initial = 0, p.lower = -0.05 * gauge_range, p.upper = 0.05 * gauge_range, p.scale = 0.01 * gauge_range;
+  p.nuisance = true;  // the effect is the logged supply; an unbiased sensor's offset fits 0
   p.apply = [](mjModel*, SignalModel* signals, double value) {
     signals->logged_supply = true;
     signals->supply_offset = value;
