@@ -178,7 +178,7 @@ TEST(CandidateEditsTest, CollisionSkippedOnlyWhereNothingCanCollide) {
     if (m) SkipCollisionWhereNothingCollides(m.get());
     return m;
   };
-  const std::string box = "<body><joint type='free'/><geom type='box' size='.1 .1 .1' contype='2' conaffinity='0'/></body>";
+  const std::string box = "<body><joint type='free'/><geom name='box' type='box' size='.1 .1 .1' contype='2' conaffinity='0'/></body>";
   // the box's contype 2 meets a floor's conaffinity 2: a contact can arise
   ModelPtr touching = loaded("<geom type='plane' size='1 1 1' contype='0' conaffinity='2'/>" + box);
   ASSERT_TRUE(touching);
@@ -188,8 +188,7 @@ TEST(CandidateEditsTest, CollisionSkippedOnlyWhereNothingCanCollide) {
   ASSERT_TRUE(apart);
   EXPECT_NE(apart->opt.disableflags & mjDSBL_CONTACT, 0);
   // the same with an explicit pair between them
-  ModelPtr paired = loaded("<geom name='floor' type='plane' size='1 1 1' contype='0' conaffinity='1'/>" +
-                           std::string("<body><joint type='free'/><geom name='box' type='box' size='.1 .1 .1' contype='2' conaffinity='0'/></body>"),
+  ModelPtr paired = loaded("<geom name='floor' type='plane' size='1 1 1' contype='0' conaffinity='1'/>" + box,
                            "<contact><pair geom1='floor' geom2='box'/></contact>");
   ASSERT_TRUE(paired);
   EXPECT_EQ(paired->opt.disableflags & mjDSBL_CONTACT, 0);

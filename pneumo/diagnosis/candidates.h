@@ -132,7 +132,7 @@ struct Candidate {
   std::vector<EffectParameter> parameters;
   // a richer form of an effect that has a simpler one in the library: fitted only in a round where
   // the effect's simpler forms are the best or second best of the effects with richer forms
-  // (the second must explain the gap by itself; diagnose.h), as its fit is costly
+  // (the second must explain the gap by itself; refinement.h), as its fit is costly
   // (a state to simulate)
   bool refinement = false;
 };
